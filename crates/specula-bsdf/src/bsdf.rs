@@ -1,0 +1,254 @@
+//! The BSDF interface shared by every model.
+//!
+//! Directions are in the local shading frame (z = shading normal) and point away from the
+//! surface. `wi` is the direction the path arrived from (towards the camera when tracing
+//! radiance, Mitsuba's `si.wi`); `wo` is the other direction (towards the light).
+//!
+//! - [`BsdfModel::eval`] returns the BSDF value f(wi, wo) **without** the cosine factor
+//!   (Mitsuba's `eval` includes |cosθo|; Specula keeps the textbook quantity, so a Lambertian
+//!   surface returns ρ/π).
+//! - [`BsdfModel::sample`] returns a direction with its solid-angle pdf and the weight
+//!   f·|cosθo|/pdf; for Dirac lobes the pdf is the discrete probability of the chosen lobe.
+//! - [`BsdfModel::pdf`] returns the solid-angle density of `sample` (0 for Dirac lobes).
+
+use crate::spectrum::Spectrum;
+use glam::{Vec2, Vec3};
+use std::fmt;
+use std::sync::Arc;
+
+/// Whether radiance (from lights, traced from the camera) or importance (from the camera,
+/// traced from lights) is being transported. Refraction scales radiance by (η_i/η_t)²;
+/// importance is not scaled.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TransportMode {
+    #[default]
+    Radiance,
+    Importance,
+}
+
+/// Evaluation context.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BsdfContext {
+    pub mode: TransportMode,
+}
+
+impl BsdfContext {
+    pub const RADIANCE: BsdfContext = BsdfContext {
+        mode: TransportMode::Radiance,
+    };
+    pub const IMPORTANCE: BsdfContext = BsdfContext {
+        mode: TransportMode::Importance,
+    };
+}
+
+/// A set of lobe kinds (bit flags): {diffuse, glossy, delta} × {reflection, transmission}.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct LobeFlags(pub u8);
+
+impl LobeFlags {
+    pub const NONE: LobeFlags = LobeFlags(0);
+    pub const DIFFUSE_REFLECTION: LobeFlags = LobeFlags(1);
+    pub const DIFFUSE_TRANSMISSION: LobeFlags = LobeFlags(2);
+    pub const GLOSSY_REFLECTION: LobeFlags = LobeFlags(4);
+    pub const GLOSSY_TRANSMISSION: LobeFlags = LobeFlags(8);
+    pub const DELTA_REFLECTION: LobeFlags = LobeFlags(16);
+    pub const DELTA_TRANSMISSION: LobeFlags = LobeFlags(32);
+    pub const REFLECTION: LobeFlags = LobeFlags(1 | 4 | 16);
+    pub const TRANSMISSION: LobeFlags = LobeFlags(2 | 8 | 32);
+    pub const DIFFUSE: LobeFlags = LobeFlags(1 | 2);
+    pub const GLOSSY: LobeFlags = LobeFlags(4 | 8);
+    pub const DELTA: LobeFlags = LobeFlags(16 | 32);
+    pub const SMOOTH: LobeFlags = LobeFlags(1 | 2 | 4 | 8);
+
+    #[inline]
+    pub fn contains(self, o: LobeFlags) -> bool {
+        self.0 & o.0 == o.0
+    }
+    #[inline]
+    pub fn intersects(self, o: LobeFlags) -> bool {
+        self.0 & o.0 != 0
+    }
+    #[inline]
+    pub fn is_delta(self) -> bool {
+        self.intersects(Self::DELTA)
+    }
+    /// True when every lobe is a Dirac delta (no `eval`/`pdf` contribution at all).
+    #[inline]
+    pub fn is_all_delta(self) -> bool {
+        self.0 != 0 && self.0 & !Self::DELTA.0 == 0
+    }
+    #[inline]
+    pub fn has_transmission(self) -> bool {
+        self.intersects(Self::TRANSMISSION)
+    }
+}
+
+impl std::ops::BitOr for LobeFlags {
+    type Output = LobeFlags;
+    fn bitor(self, o: LobeFlags) -> LobeFlags {
+        LobeFlags(self.0 | o.0)
+    }
+}
+
+impl fmt::Display for LobeFlags {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let names = [
+            "diffuse-reflection",
+            "diffuse-transmission",
+            "glossy-reflection",
+            "glossy-transmission",
+            "delta-reflection",
+            "delta-transmission",
+        ];
+        let mut first = true;
+        for (i, n) in names.iter().enumerate() {
+            if self.0 & (1 << i) != 0 {
+                if !first {
+                    f.write_str("|")?;
+                }
+                f.write_str(n)?;
+                first = false;
+            }
+        }
+        if first {
+            f.write_str("none")?;
+        }
+        Ok(())
+    }
+}
+
+/// The result of [`BsdfModel::sample`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfSample {
+    /// Sampled direction (local frame).
+    pub wo: Vec3,
+    /// f·|cosθo| / pdf (for Dirac lobes: the lobe's value divided by its selection probability).
+    pub weight: Spectrum,
+    /// Solid-angle density, or the discrete probability of a Dirac lobe.
+    pub pdf: f32,
+    /// The lobe that produced the sample (exactly one flag).
+    pub lobe: LobeFlags,
+    /// Relative index of refraction η_t/η_i crossed by the sample (1 for reflection).
+    pub eta: f32,
+}
+
+/// Where on a surface a BSDF is evaluated: what textured parameters are looked up with.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ShadingPoint {
+    /// Surface texture coordinates.
+    pub uv: Vec2,
+    /// World-space position (for procedural 3-D textures).
+    pub p: Vec3,
+}
+
+impl ShadingPoint {
+    pub fn at_uv(u: f32, v: f32) -> Self {
+        ShadingPoint {
+            uv: Vec2::new(u, v),
+            p: Vec3::ZERO,
+        }
+    }
+}
+
+/// A spatially varying parameter source, implemented by the renderer (bitmaps, checkerboards…).
+pub trait Texture: Send + Sync + fmt::Debug {
+    /// Colour at a shading point.
+    fn eval(&self, sp: &ShadingPoint) -> Spectrum;
+    /// Scalar value at a shading point (roughness maps, blend weights): luminance by default.
+    fn eval_1(&self, sp: &ShadingPoint) -> f32 {
+        self.eval(sp).luminance()
+    }
+    /// Average over the texture (used to balance lobe sampling probabilities).
+    fn mean(&self) -> Spectrum;
+}
+
+/// A colour parameter: a constant or a texture, looked up per shading point.
+#[derive(Clone, Debug)]
+pub enum SpectrumParam {
+    Const(Spectrum),
+    Texture(Arc<dyn Texture>),
+}
+
+impl SpectrumParam {
+    #[inline]
+    pub fn eval(&self, sp: &ShadingPoint) -> Spectrum {
+        match self {
+            SpectrumParam::Const(c) => *c,
+            SpectrumParam::Texture(t) => t.eval(sp),
+        }
+    }
+    pub fn mean(&self) -> Spectrum {
+        match self {
+            SpectrumParam::Const(c) => *c,
+            SpectrumParam::Texture(t) => t.mean(),
+        }
+    }
+    pub fn is_const(&self) -> bool {
+        matches!(self, SpectrumParam::Const(_))
+    }
+}
+
+impl From<Spectrum> for SpectrumParam {
+    fn from(s: Spectrum) -> Self {
+        SpectrumParam::Const(s)
+    }
+}
+impl From<f32> for SpectrumParam {
+    fn from(s: f32) -> Self {
+        SpectrumParam::Const(Spectrum::splat(s))
+    }
+}
+
+/// A scalar parameter (roughness, blend weight): a constant or a texture.
+#[derive(Clone, Debug)]
+pub enum FloatParam {
+    Const(f32),
+    Texture(Arc<dyn Texture>),
+}
+
+impl FloatParam {
+    #[inline]
+    pub fn eval(&self, sp: &ShadingPoint) -> f32 {
+        match self {
+            FloatParam::Const(c) => *c,
+            FloatParam::Texture(t) => t.eval_1(sp),
+        }
+    }
+    pub fn mean(&self) -> f32 {
+        match self {
+            FloatParam::Const(c) => *c,
+            FloatParam::Texture(t) => t.mean().luminance(),
+        }
+    }
+}
+
+impl From<f32> for FloatParam {
+    fn from(v: f32) -> Self {
+        FloatParam::Const(v)
+    }
+}
+
+/// The interface every material model implements. Implementations must not allocate.
+pub trait BsdfModel {
+    /// Which lobes the model has.
+    fn flags(&self) -> LobeFlags;
+    /// f(wi, wo) for the non-Dirac lobes (no cosine factor).
+    fn eval(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum;
+    /// Solid-angle density with which `sample` produces `wo` through its non-Dirac lobes.
+    fn pdf(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> f32;
+    /// Importance-sample a direction. `u1` picks a lobe, `u2` the direction within it.
+    /// Returns `None` when no direction can be produced (e.g. `wi` below a one-sided surface).
+    fn sample(
+        &self,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample>;
+    /// f(wi, wo)·|cosθo|, what a renderer multiplies by incident radiance.
+    #[inline]
+    fn eval_cos(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
+        self.eval(ctx, sp, wi, wo) * wo.z.abs()
+    }
+}

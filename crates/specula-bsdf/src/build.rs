@@ -1,0 +1,394 @@
+//! From plugin name and parameters to a model, with Mitsuba 3's parameter names and defaults.
+
+use crate::bsdf::{BsdfModel, FloatParam, SpectrumParam};
+use crate::fresnel::FresnelMode;
+use crate::microfacet::MicrofacetType;
+use crate::models::*;
+use crate::props::{BuildError, Props};
+use crate::spectrum::Spectrum;
+
+/// Every plugin Specula builds, with its parameters.
+pub const PLUGINS: &[(&str, &[&str])] = &[
+    ("diffuse", &["reflectance"]),
+    (
+        "conductor",
+        &["material", "eta", "k", "specular_reflectance"],
+    ),
+    (
+        "roughconductor",
+        &[
+            "material",
+            "eta",
+            "k",
+            "specular_reflectance",
+            "distribution",
+            "alpha",
+            "alpha_u",
+            "alpha_v",
+            "sample_visible",
+        ],
+    ),
+    (
+        "dielectric",
+        &[
+            "int_ior",
+            "ext_ior",
+            "specular_reflectance",
+            "specular_transmittance",
+            "fresnel",
+        ],
+    ),
+    (
+        "thindielectric",
+        &[
+            "int_ior",
+            "ext_ior",
+            "specular_reflectance",
+            "specular_transmittance",
+            "fresnel",
+        ],
+    ),
+    (
+        "roughdielectric",
+        &[
+            "int_ior",
+            "ext_ior",
+            "specular_reflectance",
+            "specular_transmittance",
+            "distribution",
+            "alpha",
+            "alpha_u",
+            "alpha_v",
+            "sample_visible",
+            "fresnel",
+        ],
+    ),
+    (
+        "plastic",
+        &[
+            "int_ior",
+            "ext_ior",
+            "diffuse_reflectance",
+            "specular_reflectance",
+            "nonlinear",
+            "fresnel",
+        ],
+    ),
+    (
+        "roughplastic",
+        &[
+            "int_ior",
+            "ext_ior",
+            "diffuse_reflectance",
+            "specular_reflectance",
+            "nonlinear",
+            "distribution",
+            "alpha",
+            "sample_visible",
+            "fresnel",
+        ],
+    ),
+    ("sheen", &["reflectance", "roughness"]),
+    ("twosided", &[]),
+    ("blendbsdf", &["weight"]),
+];
+
+/// Parameters a plugin accepts, or `None` for an unknown plugin.
+pub fn plugin_params(name: &str) -> Option<&'static [&'static str]> {
+    PLUGINS.iter().find(|(n, _)| *n == name).map(|(_, p)| *p)
+}
+
+fn fresnel_mode(p: &Props) -> Result<FresnelMode, BuildError> {
+    Ok(
+        match p
+            .choice("fresnel", "exact", &["exact", "schlick"])?
+            .as_str()
+        {
+            "schlick" => FresnelMode::Schlick,
+            _ => FresnelMode::Exact,
+        },
+    )
+}
+
+fn distribution(p: &Props) -> Result<MicrofacetType, BuildError> {
+    let d = p.choice("distribution", "beckmann", &["beckmann", "ggx"])?;
+    Ok(MicrofacetType::parse(&d).expect("validated"))
+}
+
+/// `alpha`, or `alpha_u` and `alpha_v` (anisotropic); default 0.1.
+fn roughness(p: &Props, allow_aniso: bool) -> Result<(FloatParam, FloatParam), BuildError> {
+    let has_uv = p.has("alpha_u") || p.has("alpha_v");
+    if has_uv && !allow_aniso {
+        return Err(BuildError::new(
+            p.loc.clone(),
+            format!(
+                "'{}' is isotropic: give 'alpha', not 'alpha_u'/'alpha_v'",
+                p.plugin
+            ),
+        ));
+    }
+    if has_uv {
+        if p.has("alpha") {
+            return Err(BuildError::new(
+                p.loc.clone(),
+                format!(
+                    "'{}': give either 'alpha' or 'alpha_u'/'alpha_v', not both",
+                    p.plugin
+                ),
+            ));
+        }
+        if !(p.has("alpha_u") && p.has("alpha_v")) {
+            return Err(BuildError::new(
+                p.loc.clone(),
+                format!(
+                    "'{}': 'alpha_u' and 'alpha_v' must be given together",
+                    p.plugin
+                ),
+            ));
+        }
+        Ok((
+            p.float_param("alpha_u", 0.1)?,
+            p.float_param("alpha_v", 0.1)?,
+        ))
+    } else {
+        let a = p.float_param("alpha", 0.1)?;
+        Ok((a.clone(), a))
+    }
+}
+
+fn check_alpha(p: &Props, a: &FloatParam) -> Result<(), BuildError> {
+    if let FloatParam::Const(v) = a {
+        if *v < 0.0 {
+            return Err(BuildError::new(
+                p.loc.clone(),
+                format!("'{}': roughness must be non-negative, got {v}", p.plugin),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Complex IOR: `material` (named conductor, default `none` = ideal mirror) or `eta`/`k`.
+fn complex_ior(p: &Props) -> Result<(SpectrumParam, SpectrumParam), BuildError> {
+    let material = p.string("material", "none")?;
+    if p.has("eta") || p.has("k") || material == "none" {
+        if material != "none" {
+            return Err(BuildError::new(
+                p.loc.clone(),
+                format!(
+                    "'{}': give either 'material' or 'eta'/'k', not both",
+                    p.plugin
+                ),
+            ));
+        }
+        return Ok((p.spectrum("eta", 0.0)?, p.spectrum("k", 1.0)?));
+    }
+    match crate::data::lookup_conductor(&material) {
+        Some((e, k)) => Ok((
+            SpectrumParam::Const(Spectrum::from(e)),
+            SpectrumParam::Const(Spectrum::from(k)),
+        )),
+        None => {
+            let names: Vec<&str> = crate::data::NAMED_CONDUCTORS
+                .iter()
+                .map(|(n, _, _)| *n)
+                .collect();
+            Err(BuildError::new(
+                p.loc.clone(),
+                format!(
+                    "unknown conductor '{material}'; known: none, {}",
+                    names.join(", ")
+                ),
+            ))
+        }
+    }
+}
+
+fn eta(p: &Props, default_int: &str) -> Result<f32, BuildError> {
+    let int = p.ior("int_ior", default_int)?;
+    let ext = p.ior("ext_ior", "air")?;
+    Ok(int / ext)
+}
+
+/// Build a model from its plugin name, parameters and nested BSDFs.
+pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
+    let Some(valid) = plugin_params(&p.plugin) else {
+        let names: Vec<&str> = PLUGINS.iter().map(|(n, _)| *n).collect();
+        return Err(BuildError::new(
+            p.loc.clone(),
+            format!(
+                "unknown BSDF plugin '{}'; known: {}",
+                p.plugin,
+                names.join(", ")
+            ),
+        ));
+    };
+    let nested_ok = matches!(p.plugin.as_str(), "twosided" | "blendbsdf");
+    if !nested_ok && !p.children.is_empty() {
+        return Err(BuildError::new(
+            p.loc.clone(),
+            format!("'{}' takes no nested BSDF", p.plugin),
+        ));
+    }
+    let bsdf = match p.plugin.as_str() {
+        "diffuse" => Bsdf::Diffuse(Diffuse {
+            reflectance: p.spectrum("reflectance", 0.5)?,
+        }),
+        "conductor" => {
+            let (eta, k) = complex_ior(&p)?;
+            Bsdf::Conductor(Conductor {
+                eta,
+                k,
+                specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
+            })
+        }
+        "roughconductor" => {
+            let (eta, k) = complex_ior(&p)?;
+            let (au, av) = roughness(&p, true)?;
+            check_alpha(&p, &au)?;
+            check_alpha(&p, &av)?;
+            Bsdf::RoughConductor(RoughConductor {
+                distribution: distribution(&p)?,
+                alpha_u: au,
+                alpha_v: av,
+                sample_visible: p.bool("sample_visible", true)?,
+                eta,
+                k,
+                specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
+            })
+        }
+        "dielectric" => Bsdf::Dielectric(Dielectric {
+            eta: eta(&p, "bk7")?,
+            specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
+            specular_transmittance: p.spectrum("specular_transmittance", 1.0)?,
+            fresnel: fresnel_mode(&p)?,
+        }),
+        "thindielectric" => Bsdf::ThinDielectric(ThinDielectric {
+            eta: eta(&p, "bk7")?,
+            specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
+            specular_transmittance: p.spectrum("specular_transmittance", 1.0)?,
+            fresnel: fresnel_mode(&p)?,
+        }),
+        "roughdielectric" => {
+            let (au, av) = roughness(&p, true)?;
+            check_alpha(&p, &au)?;
+            check_alpha(&p, &av)?;
+            Bsdf::RoughDielectric(RoughDielectric {
+                distribution: distribution(&p)?,
+                alpha_u: au,
+                alpha_v: av,
+                sample_visible: p.bool("sample_visible", true)?,
+                eta: eta(&p, "bk7")?,
+                specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
+                specular_transmittance: p.spectrum("specular_transmittance", 1.0)?,
+                fresnel: fresnel_mode(&p)?,
+            })
+        }
+        "plastic" | "roughplastic" => {
+            let eta = eta(&p, "polypropylene")?;
+            if eta == 1.0 {
+                return Err(BuildError::new(
+                    p.loc.clone(),
+                    format!("'{}': interior and exterior indices must differ", p.plugin),
+                ));
+            }
+            let diffuse = p.spectrum("diffuse_reflectance", 0.5)?;
+            let specular = p.spectrum("specular_reflectance", 1.0)?;
+            let nonlinear = p.bool("nonlinear", false)?;
+            let fresnel = fresnel_mode(&p)?;
+            if p.plugin == "plastic" {
+                Bsdf::Plastic(Plastic::new(diffuse, specular, eta, nonlinear, fresnel))
+            } else {
+                let (a, _) = roughness(&p, false)?;
+                let alpha = match a {
+                    FloatParam::Const(v) if v >= 0.0 => v,
+                    FloatParam::Const(v) => {
+                        return Err(BuildError::new(p.loc.clone(), format!("'roughplastic': roughness must be non-negative, got {v}")))
+                    }
+                    FloatParam::Texture(_) => {
+                        return Err(BuildError::new(
+                            p.loc.clone(),
+                            "'roughplastic': 'alpha' must be a constant (its coat transmittance is precomputed), as in Mitsuba",
+                        ))
+                    }
+                };
+                Bsdf::RoughPlastic(Box::new(RoughPlastic::new(
+                    distribution(&p)?,
+                    alpha,
+                    p.bool("sample_visible", true)?,
+                    diffuse,
+                    specular,
+                    eta,
+                    nonlinear,
+                    fresnel,
+                )))
+            }
+        }
+        "sheen" => Bsdf::Sheen(Sheen {
+            reflectance: p.spectrum("reflectance", 1.0)?,
+            roughness: p.float_param("roughness", 0.5)?,
+        }),
+        "twosided" => {
+            let mut kids: Vec<Bsdf> = p.children.iter().map(|(b, _)| b.clone()).collect();
+            if kids.is_empty() || kids.len() > 2 {
+                return Err(BuildError::new(
+                    p.loc.clone(),
+                    format!(
+                        "'twosided' needs one or two nested BSDFs, got {}",
+                        kids.len()
+                    ),
+                ));
+            }
+            for (b, loc) in &p.children {
+                if b.flags().has_transmission() {
+                    return Err(BuildError::new(
+                        loc.clone().or_else(|| p.loc.clone()),
+                        format!("'twosided' cannot nest '{}': only models without transmission can be made two-sided", b.plugin_name()),
+                    ));
+                }
+            }
+            let back = if kids.len() == 2 {
+                kids.pop().unwrap()
+            } else {
+                kids[0].clone()
+            };
+            let front = kids.pop().unwrap();
+            Bsdf::TwoSided(Box::new(TwoSided { front, back }))
+        }
+        "blendbsdf" => {
+            if !p.has("weight") {
+                return Err(BuildError::new(
+                    p.loc.clone(),
+                    "'blendbsdf' needs parameter 'weight'",
+                ));
+            }
+            let weight = p.float_param("weight", 0.5)?;
+            if let FloatParam::Const(w) = weight {
+                if !(0.0..=1.0).contains(&w) {
+                    return Err(BuildError::new(
+                        p.loc.clone(),
+                        format!("'blendbsdf': weight must lie in [0, 1], got {w}"),
+                    ));
+                }
+            }
+            if p.children.len() != 2 {
+                return Err(BuildError::new(
+                    p.loc.clone(),
+                    format!(
+                        "'blendbsdf' needs exactly two nested BSDFs, got {}",
+                        p.children.len()
+                    ),
+                ));
+            }
+            let a = p.children[0].0.clone();
+            let b = p.children[1].0.clone();
+            Bsdf::Blend(Box::new(Blend {
+                weight,
+                bsdfs: [a, b],
+            }))
+        }
+        _ => unreachable!("plugin table and match agree"),
+    };
+    p.finish(valid)?;
+    Ok(bsdf)
+}

@@ -1,0 +1,191 @@
+//! Fresnel equations: exact dielectric (with the s- and p-polarised parts), conductors with a
+//! complex index of refraction, Schlick's approximation, and the hemispherical average used by
+//! the plastic models.
+//!
+//! Conventions follow Mitsuba 3: `eta` is the relative index η_interior / η_exterior and the
+//! sign of `cos_theta_i` says from which side the light arrives (positive = outside).
+
+use crate::spectrum::Spectrum;
+
+/// The result of [`fresnel_dielectric`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DielectricFresnel {
+    /// Unpolarised reflectance R = (Rs + Rp) / 2; 1 under total internal reflection.
+    pub r: f32,
+    /// Signed cosine of the refracted direction (opposite sign to `cos_theta_i`; 0 under TIR).
+    pub cos_theta_t: f32,
+    /// Relative index η_transmitted / η_incident for this side.
+    pub eta_it: f32,
+    /// Its reciprocal η_incident / η_transmitted (the factor in Snell's law).
+    pub eta_ti: f32,
+}
+
+/// Power reflectances of the two linear polarisations.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Polarized {
+    /// s-polarised (TE) reflectance |r_s|².
+    pub rs: f32,
+    /// p-polarised (TM) reflectance |r_p|².
+    pub rp: f32,
+}
+
+impl Polarized {
+    /// Unpolarised reflectance.
+    pub fn mean(&self) -> f32 {
+        0.5 * (self.rs + self.rp)
+    }
+}
+
+/// Exact Fresnel reflectance of a smooth dielectric interface, with the refraction geometry.
+///
+/// At η = 1 the interface is index-matched: R = 0 and light passes straight through.
+#[inline]
+pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> DielectricFresnel {
+    let outside = cos_theta_i >= 0.0;
+    let (eta_it, eta_ti) = if outside {
+        (eta, 1.0 / eta)
+    } else {
+        (1.0 / eta, eta)
+    };
+    // Snell: sin²θt = (η_i/η_t)² sin²θi
+    let cos_t_sqr = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * eta_ti * eta_ti;
+    let ci = cos_theta_i.abs();
+    let ct = cos_t_sqr.max(0.0).sqrt();
+    let r = if eta == 1.0 {
+        0.0
+    } else if ci == 0.0 {
+        1.0
+    } else {
+        let a_s = (ci - eta_it * ct) / (ci + eta_it * ct);
+        let a_p = (ct - eta_it * ci) / (ct + eta_it * ci);
+        0.5 * (a_s * a_s + a_p * a_p)
+    };
+    DielectricFresnel {
+        r,
+        cos_theta_t: if outside { -ct } else { ct },
+        eta_it,
+        eta_ti,
+    }
+}
+
+/// s- and p-polarised reflectances of a dielectric interface (both 1 under TIR).
+pub fn fresnel_dielectric_polarized(cos_theta_i: f32, eta: f32) -> Polarized {
+    let eta_it = if cos_theta_i >= 0.0 { eta } else { 1.0 / eta };
+    let ci = cos_theta_i.abs();
+    let cos_t_sqr = 1.0 - (1.0 - ci * ci) / (eta_it * eta_it);
+    if cos_t_sqr <= 0.0 {
+        return Polarized { rs: 1.0, rp: 1.0 };
+    }
+    let ct = cos_t_sqr.sqrt();
+    let a_s = (ci - eta_it * ct) / (ci + eta_it * ct);
+    let a_p = (ct - eta_it * ci) / (ct + eta_it * ci);
+    Polarized {
+        rs: a_s * a_s,
+        rp: a_p * a_p,
+    }
+}
+
+/// Brewster's angle (radians) for light arriving from the side of index 1 onto index `eta`.
+pub fn brewster_angle(eta: f32) -> f32 {
+    eta.atan()
+}
+
+/// Critical angle (radians) for light inside a medium of relative index `eta` > 1.
+pub fn critical_angle(eta: f32) -> Option<f32> {
+    (eta > 1.0).then(|| (1.0 / eta).asin())
+}
+
+/// Unpolarised reflectance of a conductor with complex relative index η + i·k, for a cosine
+/// of incidence in [0, 1]. Derived from the complex Snell law written in real arithmetic:
+/// with a² + b² = √((η² − k² − sin²θ)² + 4η²k²) and a = √((a²+b² + η² − k² − sin²θ)/2),
+/// Rs = (a²+b² − 2a cosθ + cos²θ) / (a²+b² + 2a cosθ + cos²θ) and
+/// Rp = Rs · (a²+b² cos²θ − 2a cosθ sin²θ + sin⁴θ) / (a²+b² cos²θ + 2a cosθ sin²θ + sin⁴θ).
+pub fn fresnel_conductor_polarized(cos_theta_i: f32, eta: f32, k: f32) -> Polarized {
+    let c = cos_theta_i.clamp(0.0, 1.0);
+    let c2 = c * c;
+    let s2 = 1.0 - c2;
+    let t = eta * eta - k * k - s2;
+    let a2b2 = (t * t + 4.0 * eta * eta * k * k).max(0.0).sqrt();
+    let a = (0.5 * (a2b2 + t)).max(0.0).sqrt();
+    let t1 = a2b2 + c2;
+    let t2 = 2.0 * a * c;
+    let rs = (t1 - t2) / (t1 + t2);
+    let t3 = a2b2 * c2 + s2 * s2;
+    let t4 = t2 * s2;
+    let rp = rs * (t3 - t4) / (t3 + t4);
+    Polarized { rs, rp }
+}
+
+/// Unpolarised conductor reflectance.
+#[inline]
+pub fn fresnel_conductor(cos_theta_i: f32, eta: f32, k: f32) -> f32 {
+    fresnel_conductor_polarized(cos_theta_i, eta, k).mean()
+}
+
+/// Per-channel conductor reflectance.
+#[inline]
+pub fn fresnel_conductor_rgb(cos_theta_i: f32, eta: Spectrum, k: Spectrum) -> Spectrum {
+    Spectrum::new(
+        fresnel_conductor(cos_theta_i, eta[0], k[0]),
+        fresnel_conductor(cos_theta_i, eta[1], k[1]),
+        fresnel_conductor(cos_theta_i, eta[2], k[2]),
+    )
+}
+
+/// Schlick's approximation of the dielectric reflectance, with the same interface as
+/// [`fresnel_dielectric`]. F0 = ((η−1)/(η+1))²; the cosine used is the one on the
+/// optically thinner side, so that total internal reflection is reproduced from inside.
+#[inline]
+pub fn fresnel_schlick(cos_theta_i: f32, eta: f32) -> DielectricFresnel {
+    let exact = fresnel_dielectric(cos_theta_i, eta);
+    let f0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
+    let r = if eta == 1.0 {
+        0.0
+    } else if exact.r >= 1.0 && exact.cos_theta_t == 0.0 {
+        1.0
+    } else {
+        // the larger angle lies in the thinner medium
+        let c = if exact.eta_it >= 1.0 {
+            cos_theta_i.abs()
+        } else {
+            exact.cos_theta_t.abs()
+        };
+        f0 + (1.0 - f0) * (1.0 - c).powi(5)
+    };
+    DielectricFresnel { r, ..exact }
+}
+
+/// Which dielectric Fresnel formula a coated model uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FresnelMode {
+    /// The exact unpolarised Fresnel equations (default, as Mitsuba).
+    #[default]
+    Exact,
+    /// Schlick's approximation (a Specula option).
+    Schlick,
+}
+
+impl FresnelMode {
+    #[inline]
+    pub fn eval(self, cos_theta_i: f32, eta: f32) -> DielectricFresnel {
+        match self {
+            FresnelMode::Exact => fresnel_dielectric(cos_theta_i, eta),
+            FresnelMode::Schlick => fresnel_schlick(cos_theta_i, eta),
+        }
+    }
+}
+
+/// Hemispherical average of the dielectric Fresnel reflectance, 2∫F(μ)μ dμ, by the polynomial
+/// fits Mitsuba uses: Egan & Hilgeman (1973) for η < 1, d'Eon & Irving (2011) for η ≥ 1.
+pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
+    if eta < 1.0 {
+        -1.4399 * (eta * eta) + 0.7099 * eta + 0.6681 + 0.0636 / eta
+    } else {
+        let i1 = 1.0 / eta;
+        let i2 = i1 * i1;
+        let i3 = i2 * i1;
+        let i4 = i3 * i1;
+        let i5 = i4 * i1;
+        0.919317 - 3.4793 * i1 + 6.75335 * i2 - 7.80989 * i3 + 4.98554 * i4 - 1.36881 * i5
+    }
+}

@@ -1,0 +1,221 @@
+//! `roughplastic`: a diffuse base under a rough dielectric coat (Mitsuba 3 `roughplastic`,
+//! after Weidlich & Wilkie 2007). The coat's glossy reflection is a microfacet lobe
+//! F·D·G/(4cosθi cosθo); the base is seen through the coat's rough *transmittance*
+//! T(θ) = 1 − (specular albedo of the coat), precomputed in a 64-entry table over cosθ and
+//! interpolated linearly, and its inter-reflections are summed with the coat's hemispherical
+//! internal reflectance, exactly as Mitsuba does so that renders match.
+
+use crate::bsdf::*;
+use crate::frame::reflect;
+use crate::fresnel::FresnelMode;
+use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
+use crate::quad::gauss_legendre;
+use crate::spectrum::Spectrum;
+use crate::warp;
+use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+
+/// Resolution of the transmittance table over cosθ.
+pub const TRANSMITTANCE_RES: usize = 64;
+
+#[derive(Clone, Debug)]
+pub struct RoughPlastic {
+    pub distribution: MicrofacetType,
+    pub alpha: f32,
+    pub sample_visible: bool,
+    pub diffuse_reflectance: SpectrumParam,
+    pub specular_reflectance: SpectrumParam,
+    pub eta: f32,
+    pub nonlinear: bool,
+    pub fresnel: FresnelMode,
+    specular_sampling_weight: f32,
+    external_transmittance: [f32; TRANSMITTANCE_RES],
+    internal_reflectance: f32,
+}
+
+/// Specular albedo of a rough dielectric interface seen from direction `wi` (upper
+/// hemisphere): ∫ F(wi·m) G1(wo,m) D_wi(m) dm, by Gauss–Legendre quadrature over the
+/// visible-normal sample space (`res`² nodes).
+pub fn rough_specular_albedo(
+    distr: &MicrofacetDistribution,
+    fresnel: FresnelMode,
+    wi: Vec3,
+    eta: f32,
+    res: usize,
+) -> f32 {
+    let mut vd = *distr;
+    vd.sample_visible = true;
+    let (x, w) = gauss_legendre(res);
+    let mut sum = 0.0f64;
+    for (xj, wj) in x.iter().zip(&w) {
+        for (xk, wk) in x.iter().zip(&w) {
+            let u = Vec2::new((0.5 * xj + 0.5) as f32, (0.5 * xk + 0.5) as f32);
+            let (m, _) = vd.sample(wi, u);
+            let wo = reflect(wi, m);
+            if wo.z <= 0.0 || wi.z <= 0.0 {
+                continue;
+            }
+            let f = fresnel.eval(wi.dot(m), eta).r;
+            sum += (f * vd.smith_g1(wo, m)) as f64 * wj * wk * 0.25;
+        }
+    }
+    sum as f32
+}
+
+impl RoughPlastic {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        distribution: MicrofacetType,
+        alpha: f32,
+        sample_visible: bool,
+        diffuse_reflectance: SpectrumParam,
+        specular_reflectance: SpectrumParam,
+        eta: f32,
+        nonlinear: bool,
+        fresnel: FresnelMode,
+    ) -> Self {
+        let distr = MicrofacetDistribution::new(distribution, alpha, alpha, true);
+        let mut external_transmittance = [0.0; TRANSMITTANCE_RES];
+        let mut internal = 0.0f64;
+        for (i, t) in external_transmittance.iter_mut().enumerate() {
+            let mu = (i as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6);
+            let wi = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+            let res_ext = if eta > 1.0 { 32 } else { 128 };
+            let res_int = if 1.0 / eta > 1.0 { 32 } else { 128 };
+            *t = 1.0 - rough_specular_albedo(&distr, fresnel, wi, eta, res_ext);
+            internal +=
+                (rough_specular_albedo(&distr, fresnel, wi, 1.0 / eta, res_int) * mu) as f64;
+        }
+        // Mitsuba's estimate of the hemispherical average 2∫R(μ)μ dμ: twice the mean over the
+        // table's nodes
+        let internal_reflectance = (2.0 * internal / TRANSMITTANCE_RES as f64) as f32;
+        let specular_sampling_weight =
+            super::plastic::sampling_weight(&diffuse_reflectance, &specular_reflectance);
+        RoughPlastic {
+            distribution,
+            alpha: distr.alpha_u,
+            sample_visible,
+            diffuse_reflectance,
+            specular_reflectance,
+            eta,
+            nonlinear,
+            fresnel,
+            specular_sampling_weight,
+            external_transmittance,
+            internal_reflectance,
+        }
+    }
+
+    /// The coat's transmittance for a cosine (linear interpolation in the table).
+    #[inline]
+    pub fn transmittance(&self, cos_theta: f32) -> f32 {
+        let x = cos_theta * (TRANSMITTANCE_RES - 1) as f32;
+        let i = (x.max(0.0) as usize).min(TRANSMITTANCE_RES - 2);
+        let w1 = x - i as f32;
+        (1.0 - w1) * self.external_transmittance[i] + w1 * self.external_transmittance[i + 1]
+    }
+
+    /// Hemispherical internal reflectance of the coat.
+    pub fn internal_reflectance(&self) -> f32 {
+        self.internal_reflectance
+    }
+
+    #[inline]
+    fn distr(&self) -> MicrofacetDistribution {
+        MicrofacetDistribution::new(
+            self.distribution,
+            self.alpha,
+            self.alpha,
+            self.sample_visible,
+        )
+    }
+
+    #[inline]
+    fn lobe_probs(&self, t_i: f32) -> (f32, f32) {
+        let ps = (1.0 - t_i) * self.specular_sampling_weight;
+        let pd = t_i * (1.0 - self.specular_sampling_weight);
+        let ps = ps / (ps + pd);
+        (ps, 1.0 - ps)
+    }
+}
+
+impl BsdfModel for RoughPlastic {
+    fn flags(&self) -> LobeFlags {
+        LobeFlags::GLOSSY_REFLECTION | LobeFlags::DIFFUSE_REFLECTION
+    }
+
+    fn eval(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
+        let (ci, co) = (wi.z, wo.z);
+        if ci <= 0.0 || co <= 0.0 {
+            return Spectrum::ZERO;
+        }
+        let distr = self.distr();
+        let h = (wi + wo).normalize();
+        let d = distr.eval(h);
+        let f = self.fresnel.eval(wi.dot(h), self.eta).r;
+        let g = distr.g(wi, wo, h);
+        let spec = self.specular_reflectance.eval(sp) * (f * d * g / (4.0 * ci * co));
+        let (t_i, t_o) = (self.transmittance(ci), self.transmittance(co));
+        let rho = self.diffuse_reflectance.eval(sp);
+        let denom = if self.nonlinear {
+            1.0 - rho * self.internal_reflectance
+        } else {
+            Spectrum::splat(1.0 - self.internal_reflectance)
+        };
+        spec + rho / denom * (FRAC_1_PI / (self.eta * self.eta) * t_i * t_o)
+    }
+
+    fn pdf(&self, _: &BsdfContext, _: &ShadingPoint, wi: Vec3, wo: Vec3) -> f32 {
+        let (ci, co) = (wi.z, wo.z);
+        if ci <= 0.0 || co <= 0.0 {
+            return 0.0;
+        }
+        let (ps, pd) = self.lobe_probs(self.transmittance(ci));
+        let h = (wi + wo).normalize();
+        let distr = self.distr();
+        let spec = if self.sample_visible {
+            distr.eval(h) * distr.smith_g1(wi, h) / (4.0 * ci)
+        } else {
+            distr.pdf(wi, h) / (4.0 * wo.dot(h))
+        };
+        ps * spec + pd * warp::square_to_cosine_hemisphere_pdf(wo)
+    }
+
+    fn sample(
+        &self,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample> {
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let (ps, _) = self.lobe_probs(self.transmittance(wi.z));
+        let (wo, lobe) = if u1 < ps {
+            let (m, _) = self.distr().sample(wi, u2);
+            (reflect(wi, m), LobeFlags::GLOSSY_REFLECTION)
+        } else {
+            (
+                warp::square_to_cosine_hemisphere(u2),
+                LobeFlags::DIFFUSE_REFLECTION,
+            )
+        };
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let pdf = self.pdf(ctx, sp, wi, wo);
+        if !(pdf > 0.0) {
+            return None;
+        }
+        let weight = self.eval(ctx, sp, wi, wo) * (wo.z / pdf);
+        Some(BsdfSample {
+            wo,
+            weight,
+            pdf,
+            lobe,
+            eta: 1.0,
+        })
+    }
+}

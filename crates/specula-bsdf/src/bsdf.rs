@@ -246,6 +246,18 @@ pub trait BsdfModel {
         u1: f32,
         u2: Vec2,
     ) -> Option<BsdfSample>;
+    /// `eval` and `pdf` together (models that share work between them override this; a
+    /// renderer needs both for multiple importance sampling).
+    #[inline]
+    fn eval_pdf(
+        &self,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        wo: Vec3,
+    ) -> (Spectrum, f32) {
+        (self.eval(ctx, sp, wi, wo), self.pdf(ctx, sp, wi, wo))
+    }
     /// f(wi, wo)·|cosθo|, what a renderer multiplies by incident radiance.
     #[inline]
     fn eval_cos(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {

@@ -26,6 +26,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "alpha_u",
             "alpha_v",
             "sample_visible",
+            "smith_g1",
         ],
     ),
     (
@@ -60,6 +61,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "alpha_u",
             "alpha_v",
             "sample_visible",
+            "smith_g1",
             "fresnel",
         ],
     ),
@@ -72,6 +74,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "specular_reflectance",
             "nonlinear",
             "fresnel",
+            "diffuse_fresnel",
         ],
     ),
     (
@@ -85,6 +88,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "distribution",
             "alpha",
             "sample_visible",
+            "smith_g1",
             "fresnel",
         ],
     ),
@@ -108,6 +112,11 @@ fn fresnel_mode(p: &Props) -> Result<FresnelMode, BuildError> {
             _ => FresnelMode::Exact,
         },
     )
+}
+
+/// `smith_g1`: `exact` (default) or `rational` (Mitsuba's approximation for Beckmann).
+fn rational_g1(p: &Props) -> Result<bool, BuildError> {
+    Ok(p.choice("smith_g1", "exact", &["exact", "rational"])? == "rational")
 }
 
 fn distribution(p: &Props) -> Result<MicrofacetType, BuildError> {
@@ -252,6 +261,7 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
                 alpha_u: au,
                 alpha_v: av,
                 sample_visible: p.bool("sample_visible", true)?,
+                rational_g1: rational_g1(&p)?,
                 eta,
                 k,
                 specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
@@ -278,6 +288,7 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
                 alpha_u: au,
                 alpha_v: av,
                 sample_visible: p.bool("sample_visible", true)?,
+                rational_g1: rational_g1(&p)?,
                 eta: eta(&p, "bk7")?,
                 specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
                 specular_transmittance: p.spectrum("specular_transmittance", 1.0)?,
@@ -297,7 +308,10 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
             let nonlinear = p.bool("nonlinear", false)?;
             let fresnel = fresnel_mode(&p)?;
             if p.plugin == "plastic" {
-                Bsdf::Plastic(Plastic::new(diffuse, specular, eta, nonlinear, fresnel))
+                let fit = p.choice("diffuse_fresnel", "exact", &["exact", "fit"])? == "fit";
+                Bsdf::Plastic(Plastic::new(
+                    diffuse, specular, eta, nonlinear, fresnel, fit,
+                ))
             } else {
                 let (a, _) = roughness(&p, false)?;
                 let alpha = match a {
@@ -316,6 +330,7 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
                     distribution(&p)?,
                     alpha,
                     p.bool("sample_visible", true)?,
+                    rational_g1(&p)?,
                     diffuse,
                     specular,
                     eta,

@@ -12,6 +12,8 @@ use crate::spectrum::Spectrum;
 pub struct DielectricFresnel {
     /// Unpolarised reflectance R = (Rs + Rp) / 2; 1 under total internal reflection.
     pub r: f32,
+    /// Unpolarised transmittance T = 1 − R, computed directly (no cancellation near TIR).
+    pub t: f32,
     /// Signed cosine of the refracted direction (opposite sign to `cos_theta_i`; 0 under TIR).
     pub cos_theta_t: f32,
     /// Relative index η_transmitted / η_incident for this side.
@@ -51,17 +53,22 @@ pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> DielectricFresnel {
     let cos_t_sqr = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * eta_ti * eta_ti;
     let ci = cos_theta_i.abs();
     let ct = cos_t_sqr.max(0.0).sqrt();
-    let r = if eta == 1.0 {
-        0.0
-    } else if ci == 0.0 {
-        1.0
+    let (r, t) = if eta == 1.0 {
+        (0.0, 1.0)
+    } else if ci == 0.0 || cos_t_sqr <= 0.0 {
+        (1.0, 0.0)
     } else {
-        let a_s = (ci - eta_it * ct) / (ci + eta_it * ct);
-        let a_p = (ct - eta_it * ci) / (ct + eta_it * ci);
-        0.5 * (a_s * a_s + a_p * a_p)
+        let (ds, dp) = (ci + eta_it * ct, ct + eta_it * ci);
+        let a_s = (ci - eta_it * ct) / ds;
+        let a_p = (ct - eta_it * ci) / dp;
+        // T = 1 − R with 1 − a² = (1 − a)(1 + a) = 4η cosθi cosθt / d², free of the
+        // cancellation that 1 − R suffers near total internal reflection
+        let k = 2.0 * eta_it * ci * ct;
+        (0.5 * (a_s * a_s + a_p * a_p), k / (ds * ds) + k / (dp * dp))
     };
     DielectricFresnel {
         r,
+        t,
         cos_theta_t: if outside { -ct } else { ct },
         eta_it,
         eta_ti,
@@ -141,7 +148,7 @@ pub fn fresnel_schlick(cos_theta_i: f32, eta: f32) -> DielectricFresnel {
     let f0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
     let r = if eta == 1.0 {
         0.0
-    } else if exact.r >= 1.0 && exact.cos_theta_t == 0.0 {
+    } else if exact.t <= 0.0 {
         1.0
     } else {
         // the larger angle lies in the thinner medium
@@ -152,7 +159,29 @@ pub fn fresnel_schlick(cos_theta_i: f32, eta: f32) -> DielectricFresnel {
         };
         f0 + (1.0 - f0) * (1.0 - c).powi(5)
     };
-    DielectricFresnel { r, ..exact }
+    DielectricFresnel {
+        r,
+        t: 1.0 - r,
+        ..exact
+    }
+}
+
+/// Transmittance of a dielectric interface for a known refraction pair: `cos_i` and `cos_t`
+/// are the absolute cosines of the incident and refracted directions with the (micro)normal and
+/// `eta_it` = η_t/η_i. Equal to 1 − R for a pair related by Snell's law, but computed from
+/// both cosines, so it is exactly symmetric under exchanging the two sides (η → 1/η) and stays
+/// accurate when the refracted direction grazes the surface, where recovering cosθt from
+/// cosθi through Snell's law is ill-conditioned.
+#[inline]
+pub fn dielectric_transmittance_pair(cos_i: f32, cos_t: f32, eta_it: f32) -> f32 {
+    let (ci, ct) = (cos_i as f64, cos_t as f64);
+    let e = eta_it as f64;
+    let (ds, dp) = (ci + e * ct, ct + e * ci);
+    if ds <= 0.0 || dp <= 0.0 {
+        return 0.0;
+    }
+    let k = 2.0 * e * ci * ct;
+    (k / (ds * ds) + k / (dp * dp)) as f32
 }
 
 /// Which dielectric Fresnel formula a coated model uses.
@@ -166,6 +195,21 @@ pub enum FresnelMode {
 }
 
 impl FresnelMode {
+    /// Transmittance of a known refraction pair (see [`dielectric_transmittance_pair`]);
+    /// `eta_it` = η_t/η_i seen from the incident side.
+    #[inline]
+    pub fn transmittance_pair(self, cos_i: f32, cos_t: f32, eta_it: f32) -> f32 {
+        match self {
+            FresnelMode::Exact => dielectric_transmittance_pair(cos_i, cos_t, eta_it),
+            FresnelMode::Schlick => {
+                let f0 = ((eta_it - 1.0) / (eta_it + 1.0)).powi(2);
+                // the cosine on the optically thinner side
+                let c = if eta_it >= 1.0 { cos_i } else { cos_t };
+                1.0 - (f0 + (1.0 - f0) * (1.0 - c).powi(5))
+            }
+        }
+    }
+
     #[inline]
     pub fn eval(self, cos_theta_i: f32, eta: f32) -> DielectricFresnel {
         match self {

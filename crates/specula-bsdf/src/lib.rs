@@ -17,6 +17,7 @@
 
 pub mod bsdf;
 pub mod build;
+pub mod check;
 pub mod data;
 pub mod frame;
 pub mod fresnel;

@@ -1,1 +1,64 @@
-fn main() {}
+//! `specula`: the command-line front end of the Specula material library.
+//!
+//! Every command is one variant of [`Command`] (and, for material commands, of
+//! [`brdf::BrdfCommand`]), so new tools (`render`, `brdf plot`, `brdf check`, …) are added as
+//! new variants with their own argument struct and module.
+
+mod brdf;
+mod fresnel;
+mod output;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+use output::CliError;
+
+/// Specula: physically based materials (Mitsuba 3's BSDFs), evaluated, sampled and checked.
+#[derive(Debug, Parser)]
+#[command(name = "specula", version, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Fresnel reflectance vs incidence angle: a dielectric (`--ior`) or a named conductor
+    /// (`--material`).
+    Fresnel(fresnel::FresnelArgs),
+    /// Work with a single material given as a one-line spec.
+    Brdf {
+        #[command(subcommand)]
+        command: brdf::BrdfCommand,
+    },
+}
+
+fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), CliError> {
+    match cli.command {
+        Command::Fresnel(args) => fresnel::run(&args, out),
+        Command::Brdf { command } => brdf::run(command, out),
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    let result =
+        run(cli, &mut out).and_then(|()| std::io::Write::flush(&mut out).map_err(Into::into));
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => e.report(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cli_definition_is_consistent() {
+        use clap::CommandFactory;
+        Cli::command().debug_assert();
+    }
+}

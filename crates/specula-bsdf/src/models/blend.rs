@@ -1,10 +1,11 @@
 //! `blendbsdf`: a linear blend (1 − w)·f₀ + w·f₁ of two BSDFs (Mitsuba 3 `blendbsdf`), with
 //! a constant or textured weight w ∈ [0, 1].
 //!
-//! Sampling picks a component with probability (1 − w, w) and, for non-Dirac lobes, reports
-//! the blend's own density (1 − w)p₀ + w·p₁ and weight f·|cosθo|/p, so that `sample`, `pdf` and
-//! `eval` are consistent (Mitsuba returns the chosen component's density instead; both are
-//! unbiased, Specula's is the one multiple importance sampling needs).
+//! Sampling picks a component with probability (1 − w, w). For non-Dirac lobes it reports the
+//! blend's density (1 − w)p₀ + w·p₁ and weight f·|cosθo|/p, so that `sample`, `pdf` and `eval`
+//! agree (as Mitsuba 3.9 does). A Dirac lobe of one component is reported with its discrete
+//! probability times the selection probability; the blend factor and the selection
+//! probability cancel in its weight.
 
 use crate::bsdf::*;
 use crate::spectrum::Spectrum;
@@ -63,7 +64,7 @@ impl BsdfModel for Blend {
             return Some(s);
         }
         let pdf = self.pdf(ctx, sp, wi, s.wo);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         s.weight = self.eval(ctx, sp, wi, s.wo) * (s.wo.z.abs() / pdf);

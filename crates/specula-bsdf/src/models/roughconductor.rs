@@ -15,6 +15,8 @@ pub struct RoughConductor {
     pub alpha_u: FloatParam,
     pub alpha_v: FloatParam,
     pub sample_visible: bool,
+    /// Beckmann: Mitsuba's rational approximation of G1 instead of the exact one.
+    pub rational_g1: bool,
     pub eta: SpectrumParam,
     pub k: SpectrumParam,
     pub specular_reflectance: SpectrumParam,
@@ -29,6 +31,7 @@ impl RoughConductor {
             self.alpha_v.eval(sp),
             self.sample_visible,
         )
+        .with_rational_g1(self.rational_g1)
     }
     #[inline]
     fn fresnel(&self, sp: &ShadingPoint, cos: f32) -> Spectrum {

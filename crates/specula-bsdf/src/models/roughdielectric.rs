@@ -19,6 +19,8 @@ pub struct RoughDielectric {
     pub alpha_u: FloatParam,
     pub alpha_v: FloatParam,
     pub sample_visible: bool,
+    /// Beckmann: Mitsuba's rational approximation of G1 instead of the exact one.
+    pub rational_g1: bool,
     /// Relative index η_int / η_ext.
     pub eta: f32,
     pub specular_reflectance: SpectrumParam,
@@ -26,19 +28,48 @@ pub struct RoughDielectric {
     pub fresnel: FresnelMode,
 }
 
-/// The half vector of a reflection or refraction pair, oriented to the macro-normal's side,
-/// with the relative index η_t/η_i seen from `wi`'s side.
+/// The generalised half vector of a pair of directions (Walter et al. 2007, eq. 16).
+struct HalfVector {
+    /// Unit microfacet normal, on the macro-normal's side.
+    m: Vec3,
+    reflect: bool,
+    /// η_t/η_i seen from `wi`'s side.
+    eta: f32,
+    /// |wi + η wo|² for refraction (|wi + wo|² for reflection) = (wi·m + η wo·m)².
+    h2: f32,
+    /// wi·m and wo·m.
+    dwi: f32,
+    dwo: f32,
+}
+
+/// Everything is accumulated in double precision from the single-precision inputs, so that the
+/// pair (wi, wo) and the swapped pair give the same m and dot products (reciprocity), and the
+/// small quantities of grazing refraction (wo·m → 0, and the Jacobian's denominator, which in
+/// single precision suffers cancellation between wi·m and η wo·m) keep their accuracy.
 #[inline]
-fn half_vector(wi: Vec3, wo: Vec3, eta_rel: f32) -> Option<(Vec3, bool, f32)> {
+fn half_vector(wi: Vec3, wo: Vec3, eta_rel: f32) -> Option<HalfVector> {
     let reflect = wi.z * wo.z > 0.0;
-    let eta = if wi.z > 0.0 { eta_rel } else { 1.0 / eta_rel };
-    let h = wi + wo * if reflect { 1.0 } else { eta };
+    let eta = if wi.z > 0.0 {
+        eta_rel as f64
+    } else {
+        1.0 / eta_rel as f64
+    };
+    let s = if reflect { 1.0 } else { eta };
+    let (a, b) = (wi.as_dvec3(), wo.as_dvec3());
+    let h = a + s * b;
     let len2 = h.length_squared();
     if len2 == 0.0 || !len2.is_finite() {
         return None;
     }
-    let m = h / len2.sqrt();
-    Some((if m.z < 0.0 { -m } else { m }, reflect, eta))
+    let m = if h.z < 0.0 { -h } else { h } / len2.sqrt();
+    Some(HalfVector {
+        m: m.as_vec3(),
+        reflect,
+        eta: eta as f32,
+        h2: len2 as f32,
+        dwi: a.dot(m) as f32,
+        dwo: b.dot(m) as f32,
+    })
 }
 
 impl RoughDielectric {
@@ -50,6 +81,7 @@ impl RoughDielectric {
             self.alpha_v.eval(sp),
             self.sample_visible,
         )
+        .with_rational_g1(self.rational_g1)
     }
     /// The distribution microfacet normals are drawn from: the model's own with visible-normal
     /// sampling, otherwise Walter et al.'s widened one (α scaled by 1.2 − 0.2√|cosθi|).
@@ -73,60 +105,81 @@ impl BsdfModel for RoughDielectric {
     }
 
     fn eval(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
+        self.eval_pdf(ctx, sp, wi, wo).0
+    }
+
+    fn pdf(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> f32 {
+        self.eval_pdf(ctx, sp, wi, wo).1
+    }
+
+    /// f and the sampling density from one half-vector, D, G1 and Fresnel evaluation.
+    fn eval_pdf(
+        &self,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        wo: Vec3,
+    ) -> (Spectrum, f32) {
+        let none = (Spectrum::ZERO, 0.0);
         let (cos_i, cos_o) = (wi.z, wo.z);
         if cos_i == 0.0 || cos_o == 0.0 {
-            return Spectrum::ZERO;
+            return none;
         }
-        let Some((m, reflect, eta)) = half_vector(wi, wo, self.eta) else {
-            return Spectrum::ZERO;
+        let Some(HalfVector {
+            m,
+            reflect,
+            eta,
+            h2,
+            dwi,
+            dwo,
+        }) = half_vector(wi, wo, self.eta)
+        else {
+            return none;
         };
+        // micro- and macro-surface must agree on the side (G1 vanishes otherwise)
+        if dwi * cos_i <= 0.0 || dwo * cos_o <= 0.0 {
+            return none;
+        }
         let distr = self.distr(sp);
         let d = distr.eval(m);
         if d == 0.0 {
-            return Spectrum::ZERO;
+            return none;
         }
-        let (dwi, dwo) = (wi.dot(m), wo.dot(m));
-        let f = self.fresnel.eval(dwi, self.eta).r;
-        let g = distr.g(wi, wo, m);
-        if reflect {
-            self.specular_reflectance.eval(sp) * (f * d * g / (4.0 * (cos_i * cos_o).abs()))
+        let g1_i = distr.smith_g1(wi, m);
+        let g = g1_i * distr.smith_g1(wo, m);
+        // for reflection wi·m = wo·m: the average makes f exactly symmetric in (wi, wo), which
+        // matters near the critical angle where R(cosθ) has a square-root singularity
+        let fr = self
+            .fresnel
+            .eval(if reflect { 0.5 * (dwi + dwo) } else { dwi }, self.eta);
+        let (value, lobe_prob, dwh_dwo) = if reflect {
+            let v = fr.r * d * g / (4.0 * (cos_i * cos_o).abs());
+            (
+                self.specular_reflectance.eval(sp) * v,
+                fr.r,
+                1.0 / (4.0 * dwo),
+            )
         } else {
             let scale = match ctx.mode {
                 TransportMode::Radiance => 1.0 / (eta * eta),
                 TransportMode::Importance => 1.0,
             };
-            let denom = dwi + eta * dwo;
-            let v =
-                scale * (1.0 - f) * d * g * eta * eta * dwi * dwo / (cos_i * cos_o * denom * denom);
-            self.specular_transmittance.eval(sp) * v.abs()
-        }
-    }
-
-    fn pdf(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> f32 {
-        let (cos_i, cos_o) = (wi.z, wo.z);
-        if cos_i == 0.0 || cos_o == 0.0 {
-            return 0.0;
-        }
-        let Some((m, reflect, eta)) = half_vector(wi, wo, self.eta) else {
-            return 0.0;
+            // T from both cosines: reciprocal, and accurate for grazing refraction
+            let t = self.fresnel.transmittance_pair(dwi.abs(), dwo.abs(), eta);
+            let v = scale * t * d * g * eta * eta * dwi * dwo / (cos_i * cos_o * h2);
+            (
+                self.specular_transmittance.eval(sp) * v.abs(),
+                t,
+                eta * eta * dwo / h2,
+            )
         };
-        let (dwi, dwo) = (wi.dot(m), wo.dot(m));
-        // micro- and macro-surface must agree on the side (as in G1)
-        if dwi * cos_i <= 0.0 || dwo * cos_o <= 0.0 {
-            return 0.0;
-        }
-        let dwh_dwo = if reflect {
-            1.0 / (4.0 * dwo)
+        let pdf_m = if distr.sample_visible {
+            d * g1_i * dwi.abs() / cos_i.abs()
         } else {
-            let denom = dwi + eta * dwo;
-            eta * eta * dwo / (denom * denom)
+            let wi_up = if cos_i < 0.0 { -wi } else { wi };
+            self.sample_distr(&distr, cos_i).pdf(wi_up, m)
         };
-        let distr = self.distr(sp);
-        let sdistr = self.sample_distr(&distr, cos_i);
-        let wi_up = if cos_i < 0.0 { -wi } else { wi };
-        let f = self.fresnel.eval(dwi, self.eta).r;
-        let prob = sdistr.pdf(wi_up, m) * if reflect { f } else { 1.0 - f };
-        (prob * dwh_dwo).abs()
+        (value, (pdf_m * lobe_prob * dwh_dwo).abs())
     }
 
     fn sample(
@@ -145,54 +198,39 @@ impl BsdfModel for RoughDielectric {
         let sdistr = self.sample_distr(&distr, cos_i);
         let wi_up = if cos_i < 0.0 { -wi } else { wi };
         let (m, pdf_m) = sdistr.sample(wi_up, u2);
-        if !(pdf_m > 0.0) {
+        if pdf_m.is_nan() || pdf_m <= 0.0 {
             return None;
         }
         let dwi = wi.dot(m);
-        let f = self.fresnel.eval(dwi, self.eta);
-        let (wo, lobe, sel_pdf, eta_s, dwh_dwo, mut weight);
-        if u1 < f.r {
-            wo = reflect(wi, m);
-            if cos_i * wo.z <= 0.0 {
-                return None;
-            }
-            lobe = LobeFlags::GLOSSY_REFLECTION;
-            sel_pdf = f.r;
-            eta_s = 1.0;
-            dwh_dwo = 1.0 / (4.0 * wo.dot(m));
-            weight = self.specular_reflectance.eval(sp);
-        } else {
-            wo = refract(wi, m, f.cos_theta_t, f.eta_ti);
-            if cos_i * wo.z >= 0.0 {
-                return None;
-            }
-            lobe = LobeFlags::GLOSSY_TRANSMISSION;
-            sel_pdf = 1.0 - f.r;
-            eta_s = f.eta_it;
-            let denom = dwi + eta_s * wo.dot(m);
-            dwh_dwo = eta_s * eta_s * wo.dot(m) / (denom * denom);
-            let scale = match ctx.mode {
-                TransportMode::Radiance => f.eta_ti * f.eta_ti,
-                TransportMode::Importance => 1.0,
-            };
-            weight = self.specular_transmittance.eval(sp) * scale;
-        }
-        let pdf = (pdf_m * sel_pdf * dwh_dwo).abs();
-        if !(pdf > 0.0) || !pdf.is_finite() {
+        // a normal facing away from wi (possible without visible-normal sampling) has no
+        // density in `pdf` and zero shadowing: no sample
+        if dwi * cos_i <= 0.0 {
             return None;
         }
-        if distr.sample_visible {
-            weight *= distr.smith_g1(wo, m);
+        let f = self.fresnel.eval(dwi, self.eta);
+        let (wo, lobe, eta) = if u1 < f.r {
+            (reflect(wi, m), LobeFlags::GLOSSY_REFLECTION, 1.0)
         } else {
-            // widened sampling distribution: use the general ratio
-            weight = self.eval(ctx, sp, wi, wo) * wo.z.abs() / pdf;
+            let wo = refract(wi, m, f.cos_theta_t, f.eta_ti);
+            (wo, LobeFlags::GLOSSY_TRANSMISSION, f.eta_it)
+        };
+        let same_side = cos_i * wo.z > 0.0;
+        if same_side != (lobe == LobeFlags::GLOSSY_REFLECTION) || wo.dot(m) * wo.z <= 0.0 {
+            return None;
+        }
+        // Report exactly what `eval` and `pdf` give for this direction: recovering m from a
+        // refraction close to the critical angle is ill-conditioned in single precision, so
+        // closed forms in the sampled m would disagree with `pdf` by up to ~1e-3.
+        let (value, pdf) = self.eval_pdf(ctx, sp, wi, wo);
+        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
+            return None;
         }
         Some(BsdfSample {
             wo,
-            weight,
+            weight: value * (wo.z.abs() / pdf),
             pdf,
             lobe,
-            eta: eta_s,
+            eta,
         })
     }
 }

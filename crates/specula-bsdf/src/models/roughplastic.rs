@@ -1,12 +1,12 @@
 //! `roughplastic`: a diffuse base under a rough dielectric coat (Mitsuba 3 `roughplastic`,
 //! after Weidlich & Wilkie 2007). The coat's glossy reflection is a microfacet lobe
 //! F·D·G/(4cosθi cosθo); the base is seen through the coat's rough *transmittance*
-//! T(θ) = 1 − (specular albedo of the coat), precomputed in a 64-entry table over cosθ and
-//! interpolated linearly, and its inter-reflections are summed with the coat's hemispherical
+//! T(θ) = ∫ (1−F)·G1(refracted)·D_wi dm (the light that crosses the coat), precomputed in a
+//! 64-entry table over cosθ and interpolated linearly, and its inter-reflections are summed with the coat's hemispherical
 //! internal reflectance, exactly as Mitsuba does so that renders match.
 
 use crate::bsdf::*;
-use crate::frame::reflect;
+use crate::frame::{reflect, refract};
 use crate::fresnel::FresnelMode;
 use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
 use crate::quad::gauss_legendre;
@@ -23,6 +23,8 @@ pub struct RoughPlastic {
     pub distribution: MicrofacetType,
     pub alpha: f32,
     pub sample_visible: bool,
+    /// Beckmann: Mitsuba's rational approximation of G1 instead of the exact one.
+    pub rational_g1: bool,
     pub diffuse_reflectance: SpectrumParam,
     pub specular_reflectance: SpectrumParam,
     pub eta: f32,
@@ -33,15 +35,13 @@ pub struct RoughPlastic {
     internal_reflectance: f32,
 }
 
-/// Specular albedo of a rough dielectric interface seen from direction `wi` (upper
-/// hemisphere): ∫ F(wi·m) G1(wo,m) D_wi(m) dm, by Gauss–Legendre quadrature over the
-/// visible-normal sample space (`res`² nodes).
-pub fn rough_specular_albedo(
+/// ∫ g(m) D_wi(m) dm over the normals visible from `wi` (upper hemisphere), by Gauss–Legendre
+/// quadrature over the visible-normal sample space (`res`² nodes).
+fn visible_normal_quadrature(
     distr: &MicrofacetDistribution,
-    fresnel: FresnelMode,
     wi: Vec3,
-    eta: f32,
     res: usize,
+    g: impl Fn(Vec3) -> f32,
 ) -> f32 {
     let mut vd = *distr;
     vd.sample_visible = true;
@@ -51,15 +51,49 @@ pub fn rough_specular_albedo(
         for (xk, wk) in x.iter().zip(&w) {
             let u = Vec2::new((0.5 * xj + 0.5) as f32, (0.5 * xk + 0.5) as f32);
             let (m, _) = vd.sample(wi, u);
-            let wo = reflect(wi, m);
-            if wo.z <= 0.0 || wi.z <= 0.0 {
-                continue;
-            }
-            let f = fresnel.eval(wi.dot(m), eta).r;
-            sum += (f * vd.smith_g1(wo, m)) as f64 * wj * wk * 0.25;
+            sum += g(m) as f64 * wj * wk * 0.25;
         }
     }
     sum as f32
+}
+
+/// Specular albedo of a rough dielectric interface seen from direction `wi` (upper
+/// hemisphere): ∫ F(wi·m) G1(wo,m) D_wi(m) dm, with wo the mirror direction about m.
+pub fn rough_specular_albedo(
+    distr: &MicrofacetDistribution,
+    fresnel: FresnelMode,
+    wi: Vec3,
+    eta: f32,
+    res: usize,
+) -> f32 {
+    visible_normal_quadrature(distr, wi, res, |m| {
+        let wo = reflect(wi, m);
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        fresnel.eval(wi.dot(m), eta).r * distr.smith_g1(wo, m)
+    })
+}
+
+/// Transmittance of a rough dielectric interface for light arriving from `wi` (upper
+/// hemisphere): ∫ (1 − F(wi·m)) G1(wt,m) D_wi(m) dm, with wt the direction refracted by m.
+/// This is the energy that actually crosses the coat: 1 − albedo would also count the light
+/// the microsurface shadows after reflection as transmitted.
+pub fn rough_specular_transmittance(
+    distr: &MicrofacetDistribution,
+    fresnel: FresnelMode,
+    wi: Vec3,
+    eta: f32,
+    res: usize,
+) -> f32 {
+    visible_normal_quadrature(distr, wi, res, |m| {
+        let f = fresnel.eval(wi.dot(m), eta);
+        let wt = refract(wi, m, f.cos_theta_t, f.eta_ti);
+        if wt.z * wi.z >= 0.0 {
+            return 0.0;
+        }
+        (1.0 - f.r) * distr.smith_g1(wt, m)
+    })
 }
 
 impl RoughPlastic {
@@ -68,13 +102,15 @@ impl RoughPlastic {
         distribution: MicrofacetType,
         alpha: f32,
         sample_visible: bool,
+        rational_g1: bool,
         diffuse_reflectance: SpectrumParam,
         specular_reflectance: SpectrumParam,
         eta: f32,
         nonlinear: bool,
         fresnel: FresnelMode,
     ) -> Self {
-        let distr = MicrofacetDistribution::new(distribution, alpha, alpha, true);
+        let distr = MicrofacetDistribution::new(distribution, alpha, alpha, true)
+            .with_rational_g1(rational_g1);
         let mut external_transmittance = [0.0; TRANSMITTANCE_RES];
         let mut internal = 0.0f64;
         for (i, t) in external_transmittance.iter_mut().enumerate() {
@@ -82,7 +118,7 @@ impl RoughPlastic {
             let wi = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
             let res_ext = if eta > 1.0 { 32 } else { 128 };
             let res_int = if 1.0 / eta > 1.0 { 32 } else { 128 };
-            *t = 1.0 - rough_specular_albedo(&distr, fresnel, wi, eta, res_ext);
+            *t = rough_specular_transmittance(&distr, fresnel, wi, eta, res_ext);
             internal +=
                 (rough_specular_albedo(&distr, fresnel, wi, 1.0 / eta, res_int) * mu) as f64;
         }
@@ -95,6 +131,7 @@ impl RoughPlastic {
             distribution,
             alpha: distr.alpha_u,
             sample_visible,
+            rational_g1,
             diffuse_reflectance,
             specular_reflectance,
             eta,
@@ -128,6 +165,7 @@ impl RoughPlastic {
             self.alpha,
             self.sample_visible,
         )
+        .with_rational_g1(self.rational_g1)
     }
 
     #[inline]
@@ -206,7 +244,7 @@ impl BsdfModel for RoughPlastic {
             return None;
         }
         let pdf = self.pdf(ctx, sp, wi, wo);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         let weight = self.eval(ctx, sp, wi, wo) * (wo.z / pdf);

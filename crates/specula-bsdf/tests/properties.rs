@@ -1,0 +1,547 @@
+//! Statistical and physical proofs for every model over a parameter grid.
+//!
+//! - χ² goodness of fit of `sample` against `pdf` (10⁶ samples per test, the sphere binned
+//!   101 × 201 in θ × φ, expected counts by adaptive cubature of the pdf, cells expected
+//!   below 5 pooled). Family-wise significance 0.01, Šidák-corrected over *all* χ² and
+//!   binomial tests in this file (the count comes from the one case list below), with fixed
+//!   seeds so the outcome is reproducible.
+//! - Dirac models: the frequency of reflection versus transmission against the Fresnel
+//!   reflectance (binomial test, same correction).
+//! - consistency of sample weights and pdfs with eval/pdf (1e-4 relative),
+//! - reciprocity (1e-5 relative; η² relation for transmission),
+//! - energy conservation (directional albedo ≤ 1 for white parameters, = 1 for lossless ones),
+//! - non-negativity and finiteness on random and degenerate inputs.
+
+use glam::Vec3;
+use specula_bsdf::check::{self, stats};
+use specula_bsdf::{parse_spec, Bsdf, BsdfContext, BsdfModel, ShadingPoint};
+
+const FAMILY_ALPHA: f64 = 0.01;
+
+/// A model configuration with the incidence directions it is tested at.
+struct Case {
+    model: &'static str,
+    spec: String,
+    /// Relative IOR of transmissive models (for the reciprocity relation).
+    eta: Option<f32>,
+    /// Incidence angles in degrees; > 90 means from inside / below.
+    angles: Vec<f32>,
+    /// Parameters are "white" (lossless reflectances), so albedo ≤ 1 must hold.
+    white: bool,
+}
+
+const ALPHAS: [f32; 4] = [0.02, 0.1, 0.3, 0.8];
+const ANISO: [(f32, f32); 2] = [(0.05, 0.3), (0.4, 0.1)];
+const OUTSIDE: [f32; 4] = [0.0, 30.0, 60.0, 85.0];
+const BOTH_SIDES: [f32; 8] = [0.0, 30.0, 60.0, 85.0, 180.0, 150.0, 120.0, 95.0];
+
+fn cases() -> Vec<Case> {
+    let mut v = Vec::new();
+    let mut add =
+        |model: &'static str, spec: String, eta: Option<f32>, angles: &[f32], white: bool| {
+            v.push(Case {
+                model,
+                spec,
+                eta,
+                angles: angles.to_vec(),
+                white,
+            })
+        };
+    add(
+        "diffuse",
+        "diffuse reflectance=1".into(),
+        None,
+        &OUTSIDE,
+        true,
+    );
+    add(
+        "diffuse",
+        "diffuse reflectance=0.2,0.5,0.8".into(),
+        None,
+        &[30.0],
+        false,
+    );
+    for d in ["beckmann", "ggx"] {
+        for a in ALPHAS {
+            add(
+                "roughconductor",
+                format!("roughconductor distribution={d} alpha={a}"),
+                None,
+                &OUTSIDE,
+                true,
+            );
+        }
+        for (u, w) in ANISO {
+            add(
+                "roughconductor",
+                format!("roughconductor distribution={d} alpha_u={u} alpha_v={w} material=Au"),
+                None,
+                &OUTSIDE,
+                false,
+            );
+        }
+        add(
+            "roughconductor",
+            format!("roughconductor distribution={d} alpha=0.3 sample_visible=false"),
+            None,
+            &OUTSIDE,
+            true,
+        );
+        add(
+            "roughconductor",
+            format!(
+                "roughconductor distribution={d} alpha_u=0.05 alpha_v=0.3 sample_visible=false"
+            ),
+            None,
+            &OUTSIDE,
+            true,
+        );
+    }
+    for d in ["beckmann", "ggx"] {
+        for a in ALPHAS {
+            add(
+                "roughdielectric",
+                format!("roughdielectric distribution={d} alpha={a} int_ior=1.5 ext_ior=1"),
+                Some(1.5),
+                &BOTH_SIDES,
+                true,
+            );
+        }
+        add(
+            "roughdielectric",
+            format!(
+                "roughdielectric distribution={d} alpha_u=0.05 alpha_v=0.3 int_ior=1.5 ext_ior=1"
+            ),
+            Some(1.5),
+            &BOTH_SIDES,
+            true,
+        );
+        add(
+            "roughdielectric",
+            format!("roughdielectric distribution={d} alpha=0.3 int_ior=1.333 ext_ior=1 sample_visible=false"),
+            Some(1.333),
+            &BOTH_SIDES,
+            true,
+        );
+    }
+    add(
+        "roughdielectric",
+        "roughdielectric distribution=ggx alpha=0.2 int_ior=1.5 ext_ior=1 fresnel=schlick".into(),
+        Some(1.5),
+        &BOTH_SIDES,
+        true,
+    );
+    add(
+        "plastic",
+        "plastic diffuse_reflectance=1".into(),
+        None,
+        &OUTSIDE,
+        true,
+    );
+    add(
+        "plastic",
+        "plastic diffuse_reflectance=0.6,0.15,0.1 nonlinear=true int_ior=1.7".into(),
+        None,
+        &OUTSIDE,
+        false,
+    );
+    add(
+        "plastic",
+        "plastic diffuse_reflectance=1 fresnel=schlick".into(),
+        None,
+        &OUTSIDE,
+        true,
+    );
+    for d in ["beckmann", "ggx"] {
+        for a in ALPHAS {
+            add(
+                "roughplastic",
+                format!("roughplastic distribution={d} alpha={a} diffuse_reflectance=1"),
+                None,
+                &OUTSIDE,
+                true,
+            );
+        }
+    }
+    add(
+        "roughplastic",
+        "roughplastic distribution=ggx alpha=0.2 nonlinear=true diffuse_reflectance=0.6,0.15,0.1"
+            .into(),
+        None,
+        &OUTSIDE,
+        false,
+    );
+    for r in [0.1, 0.3, 0.7, 1.0] {
+        add(
+            "sheen",
+            format!("sheen roughness={r}"),
+            None,
+            &OUTSIDE,
+            true,
+        );
+    }
+    add(
+        "twosided",
+        "twosided { roughconductor distribution=ggx alpha=0.3 }".into(),
+        None,
+        &BOTH_SIDES,
+        true,
+    );
+    add(
+        "twosided",
+        "twosided { diffuse reflectance=0.3 } { roughplastic distribution=beckmann alpha=0.2 }"
+            .into(),
+        None,
+        &BOTH_SIDES,
+        false,
+    );
+    add("blendbsdf", "blendbsdf weight=0.3 { diffuse reflectance=1 } { roughconductor distribution=ggx alpha=0.2 }".into(), None, &OUTSIDE, true);
+    add(
+        "blendbsdf",
+        "blendbsdf weight=0.6 { sheen roughness=0.4 } { plastic diffuse_reflectance=0.5 }".into(),
+        None,
+        &OUTSIDE,
+        true,
+    );
+    // Dirac models: tested with the binomial lobe-selection test
+    add("conductor", "conductor".into(), None, &OUTSIDE, true);
+    add(
+        "conductor",
+        "conductor material=Cu".into(),
+        None,
+        &OUTSIDE,
+        false,
+    );
+    add(
+        "dielectric",
+        "dielectric int_ior=1.5 ext_ior=1".into(),
+        Some(1.5),
+        &BOTH_SIDES,
+        true,
+    );
+    add(
+        "dielectric",
+        "dielectric int_ior=water ext_ior=1".into(),
+        Some(1.333),
+        &BOTH_SIDES,
+        true,
+    );
+    add(
+        "dielectric",
+        "dielectric int_ior=1.5 ext_ior=1 fresnel=schlick".into(),
+        Some(1.5),
+        &BOTH_SIDES,
+        true,
+    );
+    add(
+        "thindielectric",
+        "thindielectric int_ior=1.5 ext_ior=1".into(),
+        Some(1.5),
+        &BOTH_SIDES,
+        true,
+    );
+    v
+}
+
+fn direction(theta_deg: f32, model: &str) -> Vec3 {
+    // off the xz-plane so that anisotropic models are tested off their axes
+    let phi: f32 = if model == "roughconductor" || model == "roughdielectric" {
+        0.5
+    } else {
+        0.0
+    };
+    let t = theta_deg.to_radians();
+    Vec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos()).normalize()
+}
+
+fn build(c: &Case) -> Bsdf {
+    parse_spec(&c.spec).unwrap_or_else(|e| panic!("{}: {e}", c.spec))
+}
+
+/// Number of statistical tests in the whole family (for the Šidák correction).
+fn family_size() -> usize {
+    cases().iter().map(|c| c.angles.len()).sum()
+}
+
+fn significance() -> f64 {
+    stats::sidak(FAMILY_ALPHA, family_size())
+}
+
+fn run_statistical(model: &str) {
+    let alpha = significance();
+    let sp = ShadingPoint::default();
+    let ctx = BsdfContext::RADIANCE;
+    let mut failures = Vec::new();
+    let mut pmin = f64::INFINITY;
+    let mut pmax: f64 = 0.0;
+    let mut n = 0;
+    for (ci, c) in cases().iter().filter(|c| c.model == model).enumerate() {
+        let b = build(c);
+        for (ai, &theta) in c.angles.iter().enumerate() {
+            let wi = direction(theta, model);
+            let seed = 1000 * ci as u64 + ai as u64;
+            let p = if b.flags().is_all_delta() {
+                delta_lobe_test(&b, &ctx, &sp, wi, seed)
+            } else {
+                let r = check::chi2_test(
+                    &b,
+                    &ctx,
+                    &sp,
+                    wi,
+                    &check::Chi2Config {
+                        seed,
+                        ..Default::default()
+                    },
+                );
+                if r.p_value < alpha {
+                    failures.push(format!(
+                        "{} θi={theta}: χ²={:.1} dof={} p={:.3e} ∫pdf={:.6} worst cells (θbin, φbin, obs, exp)={:?}",
+                        c.spec, r.statistic, r.dof, r.p_value, r.pdf_integral, r.worst
+                    ));
+                }
+                r.p_value
+            };
+            if p < alpha && b.flags().is_all_delta() {
+                failures.push(format!(
+                    "{} θi={theta}: lobe-selection binomial p={p:.3e}",
+                    c.spec
+                ));
+            }
+            pmin = pmin.min(p);
+            pmax = pmax.max(p);
+            n += 1;
+        }
+    }
+    println!("{model}: {n} tests, p-values in [{pmin:.3e}, {pmax:.3}], per-test significance {alpha:.3e} (Šidák over {})", family_size());
+    assert!(n > 0, "no statistical test for {model}");
+    assert!(
+        failures.is_empty(),
+        "{} statistical failures for {model}:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}
+
+/// For a model made only of Dirac lobes: sample 10⁶ times and test the frequency of the
+/// reflected lobe against the model's own reflection probability (from one deterministic
+/// reflection sample's pdf), two-sided binomial test.
+fn delta_lobe_test(b: &Bsdf, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, seed: u64) -> f64 {
+    let n = 1_000_000u64;
+    let mut rng = specula_bsdf::rng::Pcg32::new(seed, 3);
+    let mut refl = 0u64;
+    let mut p_refl = None;
+    for _ in 0..n {
+        let u1 = rng.next_f32();
+        if let Some(s) = b.sample(ctx, sp, wi, u1, rng.next_vec2()) {
+            if s.wo.z * wi.z > 0.0 {
+                refl += 1;
+                p_refl = Some(s.pdf);
+            }
+        }
+    }
+    // the model's stated reflection probability: pdf of a sample forced to reflect
+    let p = b
+        .sample(ctx, sp, wi, 0.0, glam::Vec2::splat(0.5))
+        .filter(|s| s.wo.z * wi.z > 0.0)
+        .map(|s| s.pdf as f64);
+    let p = p.or(p_refl.map(|v| v as f64)).unwrap_or(0.0);
+    stats::binomial_two_sided_p(refl, n, p)
+}
+
+#[test]
+fn chi2_diffuse() {
+    run_statistical("diffuse");
+}
+#[test]
+fn chi2_roughconductor() {
+    run_statistical("roughconductor");
+}
+#[test]
+fn chi2_roughdielectric() {
+    run_statistical("roughdielectric");
+}
+#[test]
+fn chi2_plastic() {
+    run_statistical("plastic");
+}
+#[test]
+fn chi2_roughplastic() {
+    run_statistical("roughplastic");
+}
+#[test]
+fn chi2_sheen() {
+    run_statistical("sheen");
+}
+#[test]
+fn chi2_twosided() {
+    run_statistical("twosided");
+}
+#[test]
+fn chi2_blendbsdf() {
+    run_statistical("blendbsdf");
+}
+#[test]
+fn lobe_selection_conductor() {
+    run_statistical("conductor");
+}
+#[test]
+fn lobe_selection_dielectric() {
+    run_statistical("dielectric");
+}
+#[test]
+fn lobe_selection_thindielectric() {
+    run_statistical("thindielectric");
+}
+
+#[test]
+fn sample_weights_and_pdfs_are_consistent() {
+    let sp = ShadingPoint::default();
+    let mut failures = Vec::new();
+    for c in cases() {
+        let b = build(&c);
+        for ctx in [BsdfContext::RADIANCE, BsdfContext::IMPORTANCE] {
+            for &theta in &c.angles {
+                let wi = direction(theta, c.model);
+                let r = check::sample_consistency(&b, &ctx, &sp, wi, 20_000, 5);
+                if r.max_weight_err > 1e-4 || r.max_pdf_err > 1e-4 {
+                    failures.push(format!(
+                        "{} θi={theta} {:?}: weight err {:.2e}, pdf err {:.2e}: {}",
+                        c.spec,
+                        ctx.mode,
+                        r.max_weight_err,
+                        r.max_pdf_err,
+                        r.worst.unwrap_or_default()
+                    ));
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn reciprocity_holds() {
+    let sp = ShadingPoint::default();
+    let mut failures = Vec::new();
+    for c in cases() {
+        let b = build(&c);
+        if b.flags().is_all_delta() {
+            continue;
+        }
+        let r = check::reciprocity(&b, &sp, c.eta, 20_000, 9);
+        println!("{}: max reciprocity error {:.2e}", c.spec, r.max_rel_err);
+        if r.max_rel_err > 1e-5 {
+            failures.push(format!(
+                "{}: {:.3e} at {:?}",
+                c.spec, r.max_rel_err, r.worst
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn transmission_importance_is_adjoint_of_radiance() {
+    // f_importance(wi, wo) = f_radiance(wo, wi)
+    let sp = ShadingPoint::default();
+    let b = parse_spec("roughdielectric distribution=ggx alpha=0.3 int_ior=1.5 ext_ior=1").unwrap();
+    let mut rng = specula_bsdf::rng::Pcg32::new(1, 1);
+    let mut checked = 0;
+    for _ in 0..5000 {
+        let wi = specula_bsdf::warp::square_to_uniform_sphere(rng.next_vec2());
+        let wo = specula_bsdf::warp::square_to_uniform_sphere(rng.next_vec2());
+        let a = b.eval(&BsdfContext::IMPORTANCE, &sp, wi, wo);
+        let r = b.eval(&BsdfContext::RADIANCE, &sp, wo, wi);
+        if a.max_component() > 1e-3 {
+            let e = ((a.r() - r.r()) / a.r()).abs();
+            assert!(
+                e < 1e-5,
+                "wi={wi:?} wo={wo:?} importance {a:?} radiance-adjoint {r:?}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 100);
+}
+
+#[test]
+fn energy_is_conserved() {
+    // Albedo by the model's own (χ²-validated) sampler, in importance mode so that refraction
+    // carries power without the radiance η² factor. Bound: mean ≤ 1 + 4 standard errors.
+    let sp = ShadingPoint::default();
+    let ctx = BsdfContext::IMPORTANCE;
+    let mut failures = Vec::new();
+    for c in cases().into_iter().filter(|c| c.white) {
+        let b = build(&c);
+        for &theta in &c.angles {
+            let wi = direction(theta, c.model);
+            let a = check::albedo(&b, &ctx, &sp, wi, 200_000, 21);
+            for ch in 0..3 {
+                if a.mean[ch] > 1.0 + 4.0 * a.std_err[ch] {
+                    failures.push(format!(
+                        "{} θi={theta}: albedo {:.5} ± {:.5}",
+                        c.spec, a.mean[ch], a.std_err[ch]
+                    ));
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn lossless_models_conserve_energy_exactly() {
+    let sp = ShadingPoint::default();
+    let ctx = BsdfContext::IMPORTANCE;
+    for spec in [
+        "conductor",
+        "diffuse reflectance=1",
+        "dielectric int_ior=1.5 ext_ior=1",
+        "dielectric int_ior=water",
+        "thindielectric",
+    ] {
+        let b = parse_spec(spec).unwrap();
+        for theta in [0.0f32, 30.0, 60.0, 85.0, 120.0, 170.0] {
+            if theta > 90.0 && !b.flags().has_transmission() {
+                continue;
+            }
+            let wi = direction(theta, "");
+            let a = check::albedo(&b, &ctx, &sp, wi, 200_000, 23);
+            for ch in 0..3 {
+                assert!(
+                    (a.mean[ch] - 1.0).abs() <= 0.005,
+                    "{spec} θi={theta}: albedo {}",
+                    a.mean[ch]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn finite_and_nonnegative_everywhere() {
+    let sp = ShadingPoint::default();
+    let mut specs: Vec<String> = cases().into_iter().map(|c| c.spec).collect();
+    // degenerate parameters
+    specs.extend(
+        [
+            "roughconductor alpha_u=0 alpha_v=0.3 distribution=ggx",
+            "roughconductor alpha=0 distribution=beckmann",
+            "roughdielectric alpha_u=0.3 alpha_v=0 int_ior=1.5",
+            "roughdielectric alpha=0.2 int_ior=1 ext_ior=1",
+            "roughdielectric alpha=0.2 int_ior=1 ext_ior=1 distribution=ggx",
+            "dielectric int_ior=1 ext_ior=1",
+            "thindielectric int_ior=1 ext_ior=1",
+            "roughplastic alpha=0 distribution=ggx",
+            "sheen roughness=0",
+            "roughconductor alpha=1e-4 distribution=ggx",
+        ]
+        .map(String::from),
+    );
+    for s in specs {
+        let b = parse_spec(&s).unwrap();
+        if let Err(e) = check::finite_nonnegative(&b, &sp, 2000, 77) {
+            panic!("{s}: {e}");
+        }
+    }
+}

@@ -1,0 +1,104 @@
+//! Types shared by every part of the renderer.
+
+use glam::{Vec2, Vec3};
+use specula_bsdf::frame::Frame;
+use std::fmt;
+
+/// A ray o + t·d for t in (0, t_max). `d` need not be normalised for intersection, but every
+/// ray the integrator traces has a unit direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub o: Vec3,
+    pub d: Vec3,
+    pub t_max: f32,
+}
+
+impl Ray {
+    pub fn new(o: Vec3, d: Vec3) -> Self {
+        Ray { o, d, t_max: f32::INFINITY }
+    }
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.o + self.d * t
+    }
+}
+
+/// What the acceleration structure reports: which primitive of which shape was hit, where
+/// along the ray, and the primitive's own parametric coordinates (barycentrics b1, b2 for a
+/// triangle; anything the shape needs to reconstruct the point otherwise).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    /// Index of the shape (geometry) in the scene's list.
+    pub shape: u32,
+    /// Index of the primitive within the shape (triangle index; 0 for analytic shapes).
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
+}
+
+/// Local differential geometry at a surface point, following Mitsuba 3's conventions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceGeometry {
+    pub p: Vec3,
+    /// Geometric normal (unit), on the side Mitsuba considers the front (e.g. the outside of a
+    /// sphere, +z of a rectangle/disk in object space, the winding order of a triangle).
+    pub n_geo: Vec3,
+    /// Shading frame: `n` is the (interpolated) shading normal; `s` follows ∂p/∂u projected
+    /// onto the tangent plane (Mitsuba's `compute_shading_frame`), which orients anisotropic
+    /// materials; `t = n × s`.
+    pub sh_frame: Frame,
+    pub uv: Vec2,
+}
+
+/// A point sampled on a surface (for area lights).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PositionSample {
+    pub p: Vec3,
+    /// Geometric normal at p (front side).
+    pub n: Vec3,
+    pub uv: Vec2,
+    /// Density with respect to surface area.
+    pub pdf: f32,
+}
+
+/// Where something in a scene file came from: `file:line:col`.
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
+pub struct Loc {
+    pub file: String,
+    pub line: u32,
+    pub col: u32,
+}
+
+impl fmt::Display for Loc {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}:{}", self.file, self.line, self.col)
+    }
+}
+
+/// A renderer error: a message, and where in which file when known.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub struct SceneError {
+    pub loc: Option<Loc>,
+    pub msg: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.loc {
+            Some(l) => write!(f, "{l}: {}", self.msg),
+            None => f.write_str(&self.msg),
+        }
+    }
+}
+
+impl SceneError {
+    pub fn new(loc: Option<Loc>, msg: impl Into<String>) -> Self {
+        SceneError { loc, msg: msg.into() }
+    }
+    /// An error about a file as a whole (missing, unreadable, malformed).
+    pub fn file(path: &std::path::Path, msg: impl fmt::Display) -> Self {
+        SceneError { loc: None, msg: format!("{}: {msg}", path.display()) }
+    }
+}
+
+pub type Result<T, E = SceneError> = std::result::Result<T, E>;

@@ -360,17 +360,25 @@ fn textured_parameters_are_looked_up_per_shading_point() {
     use std::sync::Arc;
     let tex: Arc<dyn specula_bsdf::Texture> = Arc::new(Halves);
     let mut p = Props::new("diffuse", None);
-    p.set("reflectance", Value::Texture(tex.clone()), None).unwrap();
+    p.set("reflectance", Value::Texture(tex.clone()), None)
+        .unwrap();
     let d = build_bsdf(p).unwrap();
     let ctx = BsdfContext::RADIANCE;
-    let (left, right) = (ShadingPoint::at_uv(0.25, 0.5), ShadingPoint::at_uv(0.75, 0.5));
+    let (left, right) = (
+        ShadingPoint::at_uv(0.25, 0.5),
+        ShadingPoint::at_uv(0.75, 0.5),
+    );
     let fl = d.eval(&ctx, &left, dir(20.0), dir(40.0));
     let fr = d.eval(&ctx, &right, dir(20.0), dir(40.0));
-    assert!((fl.r() - 0.8 / std::f32::consts::PI).abs() < 1e-6 && (fr.b() - 0.8 / std::f32::consts::PI).abs() < 1e-6);
+    assert!(
+        (fl.r() - 0.8 / std::f32::consts::PI).abs() < 1e-6
+            && (fr.b() - 0.8 / std::f32::consts::PI).abs() < 1e-6
+    );
     // a roughness map: the rough half spreads the lobe, so off-specular values rise
     let mut p = Props::new("roughconductor", None);
     p.set("alpha", Value::Texture(tex), None).unwrap();
-    p.set("distribution", Value::Str("ggx".into()), None).unwrap();
+    p.set("distribution", Value::Str("ggx".into()), None)
+        .unwrap();
     let c = build_bsdf(p).unwrap();
     // back-scattering: the half vector is 50° off the normal, deep in the smooth lobe's tail
     let (wi, off) = (dir(30.0), dir(70.0));

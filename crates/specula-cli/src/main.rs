@@ -7,6 +7,7 @@
 mod brdf;
 mod fresnel;
 mod output;
+mod render;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -26,6 +27,8 @@ enum Command {
     /// Fresnel reflectance vs incidence angle: a dielectric (`--ior`) or a named conductor
     /// (`--material`).
     Fresnel(fresnel::FresnelArgs),
+    /// Render a Mitsuba 3 scene (XML) to OpenEXR or PNG.
+    Render(render::RenderArgs),
     /// Work with a single material given as a one-line spec.
     Brdf {
         #[command(subcommand)]
@@ -37,6 +40,7 @@ fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), CliError> {
     match cli.command {
         Command::Fresnel(args) => fresnel::run(&args, out),
         Command::Brdf { command } => brdf::run(command, out),
+        Command::Render(args) => render::run(&args, out),
     }
 }
 

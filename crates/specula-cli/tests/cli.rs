@@ -157,3 +157,108 @@ fn brdf_list_names_every_plugin() {
         }
     }
 }
+
+fn shared_scene(name: &str) -> Option<std::path::PathBuf> {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/scenes")
+        .join(name);
+    if p.exists() {
+        Some(p)
+    } else {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "CI needs {}",
+            p.display()
+        );
+        None
+    }
+}
+
+#[test]
+fn render_writes_png_and_exr_with_overrides() {
+    let Some(scene) = shared_scene("cbox.xml") else {
+        return;
+    };
+    let dir = std::env::temp_dir().join(format!("specula-cli-render-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for ext in ["png", "exr"] {
+        let out = dir.join(format!("cbox.{ext}"));
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_specula"))
+            .args([
+                "render",
+                scene.to_str().unwrap(),
+                "-D",
+                "spp=2",
+                "-D",
+                "resx=40",
+                "-D",
+                "resy=30",
+                "--quiet",
+                "-o",
+            ])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(stdout.contains("40×30 at 2 spp"), "{stdout}");
+        assert!(stdout.contains("0 NaN/Inf samples discarded"), "{stdout}");
+        let bytes = std::fs::read(&out).unwrap();
+        if ext == "png" {
+            assert_eq!(&bytes[1..4], b"PNG");
+        } else {
+            assert_eq!(&bytes[..4], &[0x76, 0x2f, 0x31, 0x01]);
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn render_reports_bad_scenes_with_their_location() {
+    let dir = std::env::temp_dir().join(format!("specula-cli-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cases = [
+        ("unknown.xml", "<scene version=\"3.0.0\">\n  <shape type=\"teapot\"/>\n</scene>\n", "unknown.xml:2:3"),
+        (
+            "param.xml",
+            "<scene version=\"3.0.0\">\n <sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/></sensor>\n <shape type=\"sphere\">\n  <float name=\"radiu\" value=\"1\"/>\n </shape>\n</scene>\n",
+            "unknown parameter 'radiu'",
+        ),
+        ("malformed.xml", "<scene version=\"3.0.0\">\n  <shape type=\"sphere\">\n</scene>\n", "malformed.xml:"),
+        (
+            "missing.xml",
+            "<scene version=\"3.0.0\">\n <sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/></sensor>\n <shape type=\"obj\"><string name=\"filename\" value=\"nope.obj\"/></shape>\n</scene>\n",
+            "nope.obj",
+        ),
+        (
+            "number.xml",
+            "<scene version=\"3.0.0\">\n <sensor type=\"perspective\"><float name=\"fov\" value=\"4o\"/></sensor>\n</scene>\n",
+            "number.xml:2:",
+        ),
+    ];
+    for (name, text, needle) in cases {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_specula"))
+            .args(["render", path.to_str().unwrap(), "--quiet", "-o"])
+            .arg(dir.join("x.exr"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{name} was accepted");
+        assert!(!stderr.contains("panicked"), "{name}: {stderr}");
+        assert!(
+            stderr.contains(needle),
+            "{name}: expected '{needle}' in: {stderr}"
+        );
+        assert_eq!(stderr.trim().lines().count(), 1, "{name}: {stderr}");
+    }
+    // a missing scene file
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_specula"))
+        .args(["render", "/nonexistent/scene.xml"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("/nonexistent/scene.xml"));
+    std::fs::remove_dir_all(&dir).ok();
+}

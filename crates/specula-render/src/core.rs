@@ -15,7 +15,11 @@ pub struct Ray {
 
 impl Ray {
     pub fn new(o: Vec3, d: Vec3) -> Self {
-        Ray { o, d, t_max: f32::INFINITY }
+        Ray {
+            o,
+            d,
+            t_max: f32::INFINITY,
+        }
     }
     pub fn at(&self, t: f32) -> Vec3 {
         self.o + self.d * t
@@ -93,11 +97,17 @@ impl fmt::Display for SceneError {
 
 impl SceneError {
     pub fn new(loc: Option<Loc>, msg: impl Into<String>) -> Self {
-        SceneError { loc, msg: msg.into() }
+        SceneError {
+            loc,
+            msg: msg.into(),
+        }
     }
     /// An error about a file as a whole (missing, unreadable, malformed).
     pub fn file(path: &std::path::Path, msg: impl fmt::Display) -> Self {
-        SceneError { loc: None, msg: format!("{}: {msg}", path.display()) }
+        SceneError {
+            loc: None,
+            msg: format!("{}: {msg}", path.display()),
+        }
     }
 }
 

@@ -1,1 +1,376 @@
-//! (to be written)
+//! Reading and writing images: PNG and JPEG (8/16-bit, grey/RGB/RGBA), OpenEXR (half/float,
+//! RGB[A] or Y) and Radiance HDR in; float32 RGB OpenEXR (like Mitsuba's `hdrfilm`) and 8-bit
+//! sRGB PNG out.
+
+use crate::core::{Result, SceneError};
+use std::io::Read;
+use std::path::Path;
+
+/// A decoded image: `channels` interleaved `f32` values per pixel, row-major, top row first.
+///
+/// Integer formats are scaled to [0, 1] and left in their stored encoding (sRGB-encoded for
+/// PNG/JPEG; see [`read_image`]); floating-point formats hold linear values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: usize,
+    pub height: usize,
+    /// 1 (grey), 3 (RGB) or 4 (RGBA).
+    pub channels: usize,
+    pub data: Vec<f32>,
+}
+
+impl Image {
+    /// Value of channel `c` of pixel (x, y).
+    #[inline]
+    pub fn get(&self, x: usize, y: usize, c: usize) -> f32 {
+        self.data[(y * self.width + x) * self.channels + c]
+    }
+
+    /// Pixel (x, y) as RGB: grey is replicated, alpha is dropped.
+    #[inline]
+    pub fn rgb(&self, x: usize, y: usize) -> [f32; 3] {
+        let i = (y * self.width + x) * self.channels;
+        if self.channels < 3 {
+            let v = self.data[i];
+            [v, v, v]
+        } else {
+            [self.data[i], self.data[i + 1], self.data[i + 2]]
+        }
+    }
+}
+
+/// The sRGB transfer curve, decoding: encoded value in [0, 1] → linear.
+#[inline]
+pub fn srgb_to_linear(v: f32) -> f32 {
+    let v = v as f64;
+    let l = if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    };
+    l as f32
+}
+
+/// The sRGB transfer curve, encoding: linear → encoded value (not clamped).
+#[inline]
+pub fn linear_to_srgb(v: f32) -> f32 {
+    let v = v as f64;
+    let e = if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
+    e as f32
+}
+
+/// Reads an image. Returns it with `true` when its values are sRGB-encoded (8- or 16-bit
+/// PNG/JPEG: what Mitsuba linearises unless told `raw`), `false` when they are linear
+/// (OpenEXR, Radiance HDR). Grey+alpha images keep only the grey channel.
+pub fn read_image(path: &Path) -> Result<(Image, bool)> {
+    let mut magic = [0u8; 4];
+    let n = std::fs::File::open(path)
+        .and_then(|mut f| f.read(&mut magic))
+        .map_err(|e| SceneError::file(path, format!("cannot open image: {e}")))?;
+    if n == 4 && magic == [0x76, 0x2f, 0x31, 0x01] {
+        return read_exr(path).map(|img| (img, false));
+    }
+    read_with_image_crate(path)
+}
+
+fn read_exr(path: &Path) -> Result<Image> {
+    let img = exr::prelude::read_first_flat_layer_from_file(path)
+        .map_err(|e| SceneError::file(path, format!("cannot read OpenEXR image: {e}")))?;
+    let layer = &img.layer_data;
+    let (width, height) = (layer.size.x(), layer.size.y());
+    let find = |name: &str| {
+        layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.to_string() == name)
+            .map(|c| c.sample_data.values_as_f32().collect::<Vec<f32>>())
+    };
+    let planes: Vec<Vec<f32>> = match (find("R"), find("G"), find("B"), find("Y")) {
+        (Some(r), Some(g), Some(b), _) => match find("A") {
+            Some(a) => vec![r, g, b, a],
+            None => vec![r, g, b],
+        },
+        (_, _, _, Some(y)) => vec![y],
+        _ => {
+            let names: Vec<String> = layer
+                .channel_data
+                .list
+                .iter()
+                .map(|c| c.name.to_string())
+                .collect();
+            return Err(SceneError::file(
+                path,
+                format!(
+                    "OpenEXR image has neither R, G, B nor Y channels (found: {})",
+                    names.join(", ")
+                ),
+            ));
+        }
+    };
+    let channels = planes.len();
+    let n = width * height;
+    if planes.iter().any(|p| p.len() != n) {
+        return Err(SceneError::file(path, "OpenEXR channel sizes disagree"));
+    }
+    let mut data = vec![0.0f32; n * channels];
+    for (c, plane) in planes.iter().enumerate() {
+        for (i, v) in plane.iter().enumerate() {
+            data[i * channels + c] = *v;
+        }
+    }
+    Ok(Image {
+        width,
+        height,
+        channels,
+        data,
+    })
+}
+
+fn read_with_image_crate(path: &Path) -> Result<(Image, bool)> {
+    use image::DynamicImage as D;
+    let err = |e: &dyn std::fmt::Display| SceneError::file(path, format!("cannot read image: {e}"));
+    let dynimg = image::ImageReader::open(path)
+        .map_err(|e| err(&e))?
+        .with_guessed_format()
+        .map_err(|e| err(&e))?
+        .decode()
+        .map_err(|e| err(&e))?;
+    let (width, height) = (dynimg.width() as usize, dynimg.height() as usize);
+    let s8 = |v: u8| v as f32 / 255.0;
+    let s16 = |v: u16| v as f32 / 65535.0;
+    let (channels, data, srgb): (usize, Vec<f32>, bool) = match &dynimg {
+        D::ImageLuma8(b) => (1, b.as_raw().iter().map(|&v| s8(v)).collect(), true),
+        D::ImageLumaA8(b) => (
+            1,
+            b.as_raw().iter().step_by(2).map(|&v| s8(v)).collect(),
+            true,
+        ),
+        D::ImageRgb8(b) => (3, b.as_raw().iter().map(|&v| s8(v)).collect(), true),
+        D::ImageRgba8(b) => (4, b.as_raw().iter().map(|&v| s8(v)).collect(), true),
+        D::ImageLuma16(b) => (1, b.as_raw().iter().map(|&v| s16(v)).collect(), true),
+        D::ImageLumaA16(b) => (
+            1,
+            b.as_raw().iter().step_by(2).map(|&v| s16(v)).collect(),
+            true,
+        ),
+        D::ImageRgb16(b) => (3, b.as_raw().iter().map(|&v| s16(v)).collect(), true),
+        D::ImageRgba16(b) => (4, b.as_raw().iter().map(|&v| s16(v)).collect(), true),
+        D::ImageRgb32F(b) => (3, b.as_raw().clone(), false),
+        D::ImageRgba32F(b) => (4, b.as_raw().clone(), false),
+        // Any other (integer) layout: RGB, still sRGB-encoded.
+        other => (3, other.to_rgb32f().into_raw(), true),
+    };
+    Ok((
+        Image {
+            width,
+            height,
+            channels,
+            data,
+        },
+        srgb,
+    ))
+}
+
+fn check_len(path: &Path, width: usize, height: usize, rgb: &[f32]) -> Result<()> {
+    if rgb.len() != width * height * 3 {
+        return Err(SceneError::file(
+            path,
+            format!(
+                "image buffer holds {} values, expected {width}×{height}×3",
+                rgb.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Writes float32 RGB OpenEXR (the format of Mitsuba's `hdrfilm` output). `rgb` holds
+/// `width·height` linear RGB triples, row-major, top row first.
+pub fn write_exr(path: &Path, width: usize, height: usize, rgb: &[f32]) -> Result<()> {
+    check_len(path, width, height, rgb)?;
+    exr::prelude::write_rgb_file(path, width, height, |x, y| {
+        let i = (y * width + x) * 3;
+        (rgb[i], rgb[i + 1], rgb[i + 2])
+    })
+    .map_err(|e| SceneError::file(path, format!("cannot write OpenEXR image: {e}")))
+}
+
+/// Encodes linear RGB as 8-bit sRGB: the sRGB curve, clamped to [0, 1], rounded (NaN → 0).
+#[inline]
+pub fn linear_to_srgb8(v: f32) -> u8 {
+    let e = linear_to_srgb(v);
+    if e.is_nan() {
+        0
+    } else {
+        (e.clamp(0.0, 1.0) * 255.0).round() as u8
+    }
+}
+
+/// Writes an 8-bit sRGB PNG from linear RGB (`width·height` triples, top row first).
+pub fn write_png(path: &Path, width: usize, height: usize, rgb_linear: &[f32]) -> Result<()> {
+    check_len(path, width, height, rgb_linear)?;
+    let bytes: Vec<u8> = rgb_linear.iter().map(|&v| linear_to_srgb8(v)).collect();
+    image::save_buffer_with_format(
+        path,
+        &bytes,
+        width as u32,
+        height as u32,
+        image::ExtendedColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| SceneError::file(path, format!("cannot write PNG image: {e}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scratch file in the temporary directory, removed when dropped.
+    struct TmpFile(std::path::PathBuf);
+
+    impl Drop for TmpFile {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_file(&self.0);
+        }
+    }
+
+    impl std::ops::Deref for TmpFile {
+        type Target = Path;
+        fn deref(&self) -> &Path {
+            &self.0
+        }
+    }
+
+    impl AsRef<Path> for TmpFile {
+        fn as_ref(&self) -> &Path {
+            &self.0
+        }
+    }
+
+    fn tmp(name: &str) -> TmpFile {
+        let file = format!("specula-image-io-{}-{name}", std::process::id());
+        TmpFile(std::env::temp_dir().join(file))
+    }
+
+    fn ramp(w: usize, h: usize) -> Vec<f32> {
+        (0..w * h * 3)
+            .map(|i| (i as f32 * 0.37).sin().abs() * 3.0 + 1e-3 * i as f32)
+            .collect()
+    }
+
+    #[test]
+    fn srgb_curve_round_trip() {
+        for i in 0..=255 {
+            let e = i as f32 / 255.0;
+            let l = srgb_to_linear(e);
+            assert!((linear_to_srgb(l) - e).abs() < 1e-6, "{i}");
+            assert_eq!(linear_to_srgb8(l), i as u8);
+        }
+        // The value Mitsuba 3.9.1 produces for an sRGB byte of 240.
+        assert!((srgb_to_linear(240.0 / 255.0) - 0.871_367).abs() < 1e-6);
+        assert_eq!(linear_to_srgb8(-1.0), 0);
+        assert_eq!(linear_to_srgb8(7.0), 255);
+        assert_eq!(linear_to_srgb8(f32::NAN), 0);
+    }
+
+    #[test]
+    fn exr_round_trip_is_exact() {
+        let (w, h) = (13, 7);
+        let rgb = ramp(w, h);
+        let p = tmp("rt.exr");
+        write_exr(&p, w, h, &rgb).unwrap();
+        let (img, srgb) = read_image(&p).unwrap();
+        assert!(!srgb);
+        assert_eq!((img.width, img.height, img.channels), (w, h, 3));
+        assert_eq!(img.data, rgb);
+        let i = (2 * w + 3) * 3;
+        assert_eq!(img.rgb(3, 2), [rgb[i], rgb[i + 1], rgb[i + 2]]);
+    }
+
+    #[test]
+    fn png_round_trip_within_quantisation() {
+        let (w, h) = (9, 5);
+        let rgb: Vec<f32> = ramp(w, h).iter().map(|v| v / 3.5).collect();
+        let p = tmp("rt.png");
+        write_png(&p, w, h, &rgb).unwrap();
+        let (img, srgb) = read_image(&p).unwrap();
+        assert!(srgb);
+        assert_eq!((img.width, img.height, img.channels), (w, h, 3));
+        for (a, b) in img.data.iter().zip(&rgb) {
+            let want = linear_to_srgb8(*b) as f32 / 255.0;
+            assert_eq!(*a, want);
+            assert!((srgb_to_linear(*a) - b.min(1.0)).abs() < 0.01);
+        }
+    }
+
+    #[test]
+    fn reads_grey_rgba_16bit_png_and_hdr() {
+        let p = tmp("grey16.png");
+        let buf: Vec<u16> = (0..12).map(|i| i * 5000).collect();
+        image::ImageBuffer::<image::Luma<u16>, _>::from_raw(4, 3, buf.clone())
+            .unwrap()
+            .save(&p)
+            .unwrap();
+        let (img, srgb) = read_image(&p).unwrap();
+        assert!(srgb);
+        assert_eq!((img.width, img.height, img.channels), (4, 3, 1));
+        assert!((img.get(1, 2, 0) - 45000.0 / 65535.0).abs() < 1e-7);
+
+        let p = tmp("rgba.png");
+        let buf: Vec<u8> = (0..2 * 2 * 4).map(|i| (i * 13) as u8).collect();
+        image::RgbaImage::from_raw(2, 2, buf.clone())
+            .unwrap()
+            .save(&p)
+            .unwrap();
+        let (img, _) = read_image(&p).unwrap();
+        assert_eq!(img.channels, 4);
+        assert_eq!(img.get(1, 1, 3), buf[15] as f32 / 255.0);
+
+        let p = tmp("x.hdr");
+        let px: Vec<image::Rgb<f32>> = (0..6).map(|i| image::Rgb([i as f32, 0.5, 100.0])).collect();
+        let f = std::fs::File::create(&p).unwrap();
+        image::codecs::hdr::HdrEncoder::new(f)
+            .encode(&px, 3, 2)
+            .unwrap();
+        let (img, srgb) = read_image(&p).unwrap();
+        assert!(!srgb);
+        assert_eq!((img.width, img.height, img.channels), (3, 2, 3));
+        assert!((img.get(2, 1, 0) - 5.0).abs() < 0.05);
+        assert!((img.get(2, 1, 2) - 100.0).abs() < 1.0);
+    }
+
+    #[test]
+    fn reads_shared_assets() {
+        let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/assets");
+        if !assets.exists() {
+            return;
+        }
+        let (img, srgb) = read_image(&assets.join("grid.png")).unwrap();
+        assert!(srgb);
+        assert_eq!((img.width, img.height, img.channels), (256, 256, 3));
+        assert_eq!(img.get(5, 7, 2), 60.0 / 255.0);
+        let (img, srgb) = read_image(&assets.join("sky.exr")).unwrap();
+        assert!(!srgb);
+        assert_eq!((img.width, img.height, img.channels), (512, 256, 3));
+        // The sun's brightest pixel, as Mitsuba 3.9.1 reads it.
+        assert_eq!(img.rgb(153, 60), [400.0, 360.0, 300.0]);
+    }
+
+    #[test]
+    fn errors_name_the_file() {
+        let p = tmp("missing.png");
+        let e = read_image(&p).unwrap_err();
+        assert!(e.to_string().contains("missing.png"), "{e}");
+        let p = tmp("garbage.exr");
+        std::fs::write(&p, [0x76, 0x2f, 0x31, 0x01, 9, 9, 9]).unwrap();
+        let e = read_image(&p).unwrap_err();
+        assert!(e.to_string().contains("garbage.exr"), "{e}");
+        let e = write_png(&p, 2, 2, &[0.0; 3]).unwrap_err();
+        assert!(e.to_string().contains("garbage.exr"), "{e}");
+    }
+}

@@ -12,15 +12,16 @@
 //! - [`emitters`], [`texture`], [`image_io`], [`film`]: lights, textures, images, the film;
 //! - [`scene`], [`camera`], [`integrator`], [`render`]: assembling and rendering a scene.
 
-pub mod core;
 pub mod accel;
 pub mod camera;
+pub mod core;
 pub mod emitters;
 pub mod film;
 pub mod geometry;
 pub mod image_io;
 pub mod integrator;
 pub mod mesh_io;
+pub mod metrics;
 pub mod render;
 pub mod scene;
 pub mod texture;

@@ -1,1 +1,637 @@
-//! (to be written)
+//! A renderable scene, assembled from a Mitsuba 3 XML plugin tree.
+
+use crate::accel::{Bvh, Intersector};
+use crate::camera::{FovAxis, PerspectiveCamera};
+use crate::core::{Loc, Ray, Result, SceneError};
+use crate::emitters::Emitter;
+use crate::film::{Film, RFilter};
+use crate::geometry::Geometry;
+use crate::texture::{Bitmap, Checkerboard};
+use crate::xml::{Node, PropValue};
+use glam::{Mat4, Vec3};
+use specula_bsdf::{build_bsdf, Bsdf, Props, Rgb, Texture, Value};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Settings of Mitsuba's `path` integrator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathSettings {
+    /// Longest path (number of segments); −1 = unbounded.
+    pub max_depth: i32,
+    /// Depth from which Russian roulette starts.
+    pub rr_depth: i32,
+    /// Whether directly visible emitters are hidden.
+    pub hide_emitters: bool,
+}
+
+/// A light source: an emitting shape or one of the other emitters.
+#[derive(Debug)]
+pub enum Light {
+    /// Mitsuba's `area` emitter on shape `shape`, emitting `radiance` from its front side.
+    Area {
+        shape: u32,
+        radiance: Rgb,
+    },
+    Other(Emitter),
+}
+
+pub struct Scene {
+    pub geometry: Vec<Geometry>,
+    /// BSDF of each shape.
+    pub shape_bsdf: Vec<u32>,
+    /// Light attached to each shape, if it emits.
+    pub shape_light: Vec<Option<u32>>,
+    pub bsdfs: Vec<Bsdf>,
+    pub lights: Vec<Light>,
+    /// Indices of infinitely distant lights (environment, constant) seen by escaping rays.
+    pub infinite_lights: Vec<u32>,
+    pub accel: Bvh,
+    pub camera: PerspectiveCamera,
+    pub film: Film,
+    pub spp: u32,
+    pub seed: u64,
+    pub integrator: PathSettings,
+}
+
+impl Scene {
+    /// Load a Mitsuba 3 scene file; `overrides` are `-D name=value` pairs.
+    pub fn load(path: &Path, overrides: &[(String, String)]) -> Result<Scene> {
+        let root = crate::xml::load_scene(path, overrides)?;
+        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Builder {
+            base,
+            ids: HashMap::new(),
+            bsdf_ids: HashMap::new(),
+            texture_ids: HashMap::new(),
+        }
+        .build(&root)
+    }
+
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<crate::core::Hit> {
+        self.accel.intersect(ray)
+    }
+
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.accel.occluded(ray)
+    }
+}
+
+fn loc_str(l: &Loc) -> Option<String> {
+    Some(l.to_string())
+}
+
+struct Builder {
+    base: PathBuf,
+    /// id → tag, to give good errors for refs of the wrong kind
+    ids: HashMap<String, (String, Loc)>,
+    bsdf_ids: HashMap<String, u32>,
+    texture_ids: HashMap<String, Arc<dyn Texture>>,
+}
+
+struct Parts {
+    geometry: Vec<Geometry>,
+    shape_bsdf: Vec<u32>,
+    shape_light: Vec<Option<u32>>,
+    bsdfs: Vec<Bsdf>,
+    lights: Vec<Light>,
+}
+
+impl Builder {
+    fn resolve_path(&self, name: &str) -> PathBuf {
+        let p = Path::new(name);
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            self.base.join(p)
+        }
+    }
+
+    fn build(mut self, root: &Node) -> Result<Scene> {
+        if root.tag != "scene" {
+            return Err(SceneError::new(
+                Some(root.loc.clone()),
+                "the root element must be <scene>",
+            ));
+        }
+        let mut parts = Parts {
+            geometry: vec![],
+            shape_bsdf: vec![],
+            shape_light: vec![],
+            bsdfs: vec![],
+            lights: vec![],
+        };
+        let mut integrator = PathSettings {
+            max_depth: -1,
+            rr_depth: 5,
+            hide_emitters: false,
+        };
+        let mut sensor: Option<(PerspectiveCamera, Film, u32, u64)> = None;
+        for child in &root.children {
+            if let Some(id) = &child.id {
+                if child.tag != "ref" {
+                    if let Some((_, first)) = self.ids.get(id) {
+                        return Err(SceneError::new(
+                            Some(child.loc.clone()),
+                            format!("id '{id}' is already used at {first}"),
+                        ));
+                    }
+                    self.ids
+                        .insert(id.clone(), (child.tag.clone(), child.loc.clone()));
+                }
+            }
+            match child.tag.as_str() {
+                "integrator" => integrator = self.integrator(child)?,
+                "sensor" => sensor = Some(self.sensor(child)?),
+                "bsdf" => {
+                    let b = self.bsdf(child)?;
+                    parts.bsdfs.push(b);
+                    if let Some(id) = &child.id {
+                        self.bsdf_ids.insert(id.clone(), parts.bsdfs.len() as u32 - 1);
+                    }
+                }
+                "texture" => {
+                    let t = self.texture(child)?;
+                    if let Some(id) = &child.id {
+                        self.texture_ids.insert(id.clone(), t);
+                    }
+                }
+                "shape" => self.shape(child, &mut parts)?,
+                "emitter" => {
+                    let e = self.emitter(child)?;
+                    parts.lights.push(Light::Other(e));
+                }
+                other => {
+                    return Err(SceneError::new(
+                        Some(child.loc.clone()),
+                        format!("<{other}> is not supported at the top level of a scene (supported: integrator, sensor, bsdf, texture, shape, emitter)"),
+                    ))
+                }
+            }
+        }
+        root.check_unused(&[])?;
+        let Some((camera, film, spp, seed)) = sensor else {
+            return Err(SceneError::new(
+                Some(root.loc.clone()),
+                "the scene has no <sensor>",
+            ));
+        };
+        if parts.geometry.is_empty() && parts.lights.is_empty() {
+            return Err(SceneError::new(
+                Some(root.loc.clone()),
+                "the scene has no shapes and no emitters",
+            ));
+        }
+        let infinite_lights = parts
+            .lights
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| matches!(l, Light::Other(e) if e.is_infinite()))
+            .map(|(i, _)| i as u32)
+            .collect();
+        let accel = Bvh::build(&parts.geometry);
+        Ok(Scene {
+            geometry: parts.geometry,
+            shape_bsdf: parts.shape_bsdf,
+            shape_light: parts.shape_light,
+            bsdfs: parts.bsdfs,
+            lights: parts.lights,
+            infinite_lights,
+            accel,
+            camera,
+            film,
+            spp,
+            seed,
+            integrator,
+        })
+    }
+
+    fn integrator(&self, n: &Node) -> Result<PathSettings> {
+        if n.plugin_type != "path" {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                format!(
+                    "integrator '{}' is not supported (supported: path)",
+                    n.plugin_type
+                ),
+            ));
+        }
+        let s = PathSettings {
+            max_depth: n.int("max_depth", -1)? as i32,
+            rr_depth: n.int("rr_depth", 5)? as i32,
+            hide_emitters: n.bool("hide_emitters", false)?,
+        };
+        if s.max_depth < -1 || s.rr_depth <= 0 {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                "max_depth must be ≥ −1 and rr_depth ≥ 1",
+            ));
+        }
+        n.check_unused(&["max_depth", "rr_depth", "hide_emitters"])?;
+        Ok(s)
+    }
+
+    fn sensor(&self, n: &Node) -> Result<(PerspectiveCamera, Film, u32, u64)> {
+        if n.plugin_type != "perspective" {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                format!(
+                    "sensor '{}' is not supported (supported: perspective)",
+                    n.plugin_type
+                ),
+            ));
+        }
+        let mut film = None;
+        let mut spp = 4u32;
+        let mut seed = 0u64;
+        for c in &n.children {
+            match c.tag.as_str() {
+                "film" => film = Some(self.film(c)?),
+                "sampler" => {
+                    const SAMPLERS: [&str; 5] = [
+                        "independent",
+                        "stratified",
+                        "multijitter",
+                        "ldsampler",
+                        "orthogonal",
+                    ];
+                    if !SAMPLERS.contains(&c.plugin_type.as_str()) {
+                        return Err(SceneError::new(
+                            Some(c.loc.clone()),
+                            format!(
+                                "sampler '{}' is not supported (supported: {})",
+                                c.plugin_type,
+                                SAMPLERS.join(", ")
+                            ),
+                        ));
+                    }
+                    let count = c.int("sample_count", 4)?;
+                    if count <= 0 {
+                        return Err(SceneError::new(
+                            Some(c.loc.clone()),
+                            "sample_count must be positive",
+                        ));
+                    }
+                    spp = count as u32;
+                    seed = c.int("seed", 0)? as u64;
+                    c.check_unused(&[
+                        "sample_count",
+                        "seed",
+                        "jitter",
+                        "dimension",
+                        "scramble",
+                        "strength",
+                    ])?;
+                    // accepted for compatibility; Specula's independent sampler ignores them
+                    for p in ["jitter", "dimension", "scramble", "strength"] {
+                        let _ = c.prop(p);
+                    }
+                }
+                other => {
+                    return Err(SceneError::new(
+                        Some(c.loc.clone()),
+                        format!("<{other}> cannot be nested in a sensor"),
+                    ))
+                }
+            }
+        }
+        let film = film.unwrap_or(Film::new(768, 576, RFilter::default_gaussian()));
+        let axis_name = n.string("fov_axis", "x")?;
+        let axis = FovAxis::parse(&axis_name).ok_or_else(|| {
+            SceneError::new(
+                Some(n.loc.clone()),
+                format!("fov_axis '{axis_name}' is invalid (x, y, diagonal, smaller, larger)"),
+            )
+        })?;
+        if n.has("focal_length") {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                "focal_length is not supported; give fov",
+            ));
+        }
+        let fov = n.float("fov", 0.0)?;
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                format!("fov must lie in (0, 180) degrees, got {fov}"),
+            ));
+        }
+        let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        let near = n.float("near_clip", 1e-2)?;
+        let far = n.float("far_clip", 1e4)?;
+        n.check_unused(&["fov", "fov_axis", "to_world", "near_clip", "far_clip"])?;
+        let cam = PerspectiveCamera::new(to_world, fov, axis, film.width, film.height, near, far);
+        Ok((cam, film, spp, seed))
+    }
+
+    fn film(&self, n: &Node) -> Result<Film> {
+        if n.plugin_type != "hdrfilm" {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                format!(
+                    "film '{}' is not supported (supported: hdrfilm)",
+                    n.plugin_type
+                ),
+            ));
+        }
+        let w = n.int("width", 768)?;
+        let h = n.int("height", 576)?;
+        if w <= 0 || h <= 0 || w > 1 << 16 || h > 1 << 16 {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                format!("invalid film size {w}×{h}"),
+            ));
+        }
+        for p in [
+            "file_format",
+            "pixel_format",
+            "component_format",
+            "banner",
+            "sample_border",
+        ] {
+            let _ = n.prop(p);
+        }
+        let mut filter = RFilter::default_gaussian();
+        for c in &n.children {
+            if c.tag != "rfilter" {
+                return Err(SceneError::new(
+                    Some(c.loc.clone()),
+                    format!("<{}> cannot be nested in a film", c.tag),
+                ));
+            }
+            filter = self.rfilter(c)?;
+        }
+        n.check_unused(&[
+            "width",
+            "height",
+            "rfilter",
+            "file_format",
+            "pixel_format",
+            "component_format",
+            "banner",
+            "sample_border",
+        ])?;
+        Ok(Film::new(w as usize, h as usize, filter))
+    }
+
+    fn rfilter(&self, n: &Node) -> Result<RFilter> {
+        let f = match n.plugin_type.as_str() {
+            "box" => RFilter::Box,
+            "tent" => RFilter::Tent,
+            "gaussian" => RFilter::gaussian(n.float("stddev", 0.5)?),
+            other => {
+                return Err(SceneError::new(
+                    Some(n.loc.clone()),
+                    format!("rfilter '{other}' is not supported (supported: box, tent, gaussian)"),
+                ))
+            }
+        };
+        n.check_unused(&["stddev"])?;
+        Ok(f)
+    }
+
+    fn texture(&self, n: &Node) -> Result<Arc<dyn Texture>> {
+        let to_uv = n.transform("to_uv")?.unwrap_or(Mat4::IDENTITY);
+        let t: Arc<dyn Texture> = match n.plugin_type.as_str() {
+            "checkerboard" => {
+                let c0 = n.rgb("color0", [0.4; 3])?;
+                let c1 = n.rgb("color1", [0.2; 3])?;
+                n.check_unused(&["color0", "color1", "to_uv"])?;
+                Arc::new(Checkerboard::new(Rgb(c0), Rgb(c1), to_uv))
+            }
+            "bitmap" => {
+                let file = n.string_opt("filename")?.ok_or_else(|| {
+                    SceneError::new(Some(n.loc.clone()), "bitmap needs 'filename'")
+                })?;
+                let filter = n.string("filter_type", "bilinear")?;
+                let wrap = n.string("wrap_mode", "repeat")?;
+                let raw = n.bool("raw", false)?;
+                n.check_unused(&[
+                    "filename",
+                    "filter_type",
+                    "wrap_mode",
+                    "raw",
+                    "to_uv",
+                    "format",
+                ])?;
+                let path = self.resolve_path(&file);
+                let b = Bitmap::load(&path, &filter, &wrap, raw, to_uv)
+                    .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
+                Arc::new(b)
+            }
+            other => {
+                return Err(SceneError::new(
+                    Some(n.loc.clone()),
+                    format!("texture '{other}' is not supported (supported: bitmap, checkerboard)"),
+                ))
+            }
+        };
+        Ok(t)
+    }
+
+    /// Convert an XML BSDF node into the material library's parameters and build it.
+    fn bsdf(&self, n: &Node) -> Result<Bsdf> {
+        let mut props = Props::new(n.plugin_type.clone(), loc_str(&n.loc));
+        for p in &n.props {
+            let v = match &p.value {
+                PropValue::Float(v) => Value::Float(*v),
+                PropValue::Int(v) => Value::Int(*v),
+                PropValue::Bool(v) => Value::Bool(*v),
+                PropValue::Str(v) => Value::Str(v.clone()),
+                PropValue::Rgb(v) => Value::Rgb(Rgb(*v)),
+                PropValue::Spectrum(v) => Value::Float(*v as f64),
+                other => {
+                    return Err(SceneError::new(
+                        Some(p.loc.clone()),
+                        format!(
+                            "parameter '{}' of bsdf '{}' cannot be a {other:?}",
+                            p.name, n.plugin_type
+                        ),
+                    ))
+                }
+            };
+            props.set(&p.name, v, loc_str(&p.loc)).map_err(bsdf_err)?;
+        }
+        n.mark_all_used();
+        for c in &n.children {
+            match c.tag.as_str() {
+                "texture" => {
+                    let name = c.name.clone().ok_or_else(|| {
+                        SceneError::new(
+                            Some(c.loc.clone()),
+                            "a texture nested in a bsdf needs a 'name' (the parameter it sets)",
+                        )
+                    })?;
+                    let t = self.texture(c)?;
+                    props
+                        .set(&name, Value::Texture(t), loc_str(&c.loc))
+                        .map_err(bsdf_err)?;
+                }
+                "bsdf" => {
+                    let b = self.bsdf(c)?;
+                    props.add_child(b, loc_str(&c.loc));
+                }
+                "ref" => {
+                    let id = c.id.clone().unwrap_or_default();
+                    if let Some(t) = self.texture_ids.get(&id) {
+                        let name = c.name.clone().ok_or_else(|| {
+                            SceneError::new(
+                                Some(c.loc.clone()),
+                                format!("a reference to texture '{id}' needs a 'name'"),
+                            )
+                        })?;
+                        props
+                            .set(&name, Value::Texture(t.clone()), loc_str(&c.loc))
+                            .map_err(bsdf_err)?;
+                    } else {
+                        return Err(self.bad_ref(c, "bsdf or texture"));
+                    }
+                }
+                other => {
+                    return Err(SceneError::new(
+                        Some(c.loc.clone()),
+                        format!("<{other}> cannot be nested in a bsdf"),
+                    ))
+                }
+            }
+        }
+        build_bsdf(props).map_err(bsdf_err)
+    }
+
+    fn bad_ref(&self, c: &Node, want: &str) -> SceneError {
+        let id = c.id.clone().unwrap_or_default();
+        match self.ids.get(&id) {
+            Some((tag, at)) => SceneError::new(
+                Some(c.loc.clone()),
+                format!("'{id}' (defined at {at}) is a {tag}, not a {want}"),
+            ),
+            None => SceneError::new(
+                Some(c.loc.clone()),
+                format!("reference to undefined id '{id}' (ids must be defined before use)"),
+            ),
+        }
+    }
+
+    fn emitter(&self, n: &Node) -> Result<Emitter> {
+        Emitter::from_node(n, &self.base)
+    }
+
+    fn shape(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        let flip = n.bool("flip_normals", false)?;
+        let geom = match n.plugin_type.as_str() {
+            "obj" | "ply" => {
+                let file = n.string_opt("filename")?.ok_or_else(|| SceneError::new(Some(n.loc.clone()), format!("{} needs 'filename'", n.plugin_type)))?;
+                let face_normals = n.bool("face_normals", false)?;
+                let path = self.resolve_path(&file);
+let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } else { crate::mesh_io::load_ply(&path) }
+                    .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
+                // Mitsuba's OBJ loader flips v unless told not to (load_obj flips, as the default)
+                if n.plugin_type == "obj" && !n.bool("flip_tex_coords", true)? {
+                    if let Some(uvs) = data.uvs.as_mut() {
+                        for uv in uvs.iter_mut() {
+                            uv.y = 1.0 - uv.y;
+                        }
+                    }
+                }
+                let valid: &[&str] = if n.plugin_type == "obj" {
+                    &["filename", "face_normals", "flip_normals", "to_world", "flip_tex_coords"]
+                } else {
+                    &["filename", "face_normals", "flip_normals", "to_world"]
+                };
+                n.check_unused(valid)?;
+                Geometry::mesh(data, to_world, face_normals, flip)
+                    .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?
+            }
+            "sphere" => {
+                let center = n.point("center", Vec3::ZERO)?;
+                let radius = n.float("radius", 1.0)?;
+                if radius.is_nan() || radius <= 0.0 {
+                    return Err(SceneError::new(Some(n.loc.clone()), format!("sphere radius must be positive, got {radius}")));
+                }
+                n.check_unused(&["center", "radius", "to_world", "flip_normals"])?;
+                Geometry::sphere(center, radius, to_world, flip)
+            }
+            "rectangle" | "cube" | "disk" => {
+                n.check_unused(&["to_world", "flip_normals"])?;
+                match n.plugin_type.as_str() {
+                    "rectangle" => Geometry::rectangle(to_world, flip),
+                    "cube" => Geometry::cube(to_world, flip),
+                    _ => Geometry::disk(to_world, flip),
+                }
+            }
+            other => {
+                return Err(SceneError::new(
+                    Some(n.loc.clone()),
+                    format!("shape '{other}' is not supported (supported: obj, ply, sphere, rectangle, cube, disk)"),
+                ))
+            }
+        };
+        let shape_index = parts.geometry.len() as u32;
+        let mut bsdf = None;
+        let mut light = None;
+        for c in &n.children {
+            match c.tag.as_str() {
+                "bsdf" => {
+                    let b = self.bsdf(c)?;
+                    parts.bsdfs.push(b);
+                    bsdf = Some(parts.bsdfs.len() as u32 - 1);
+                }
+                "ref" => {
+                    let id = c.id.clone().unwrap_or_default();
+                    match self.bsdf_ids.get(&id) {
+                        Some(&b) => bsdf = Some(b),
+                        None => return Err(self.bad_ref(c, "bsdf")),
+                    }
+                }
+                "emitter" => {
+                    if c.plugin_type != "area" {
+                        return Err(SceneError::new(
+                            Some(c.loc.clone()),
+                            format!(
+                                "only 'area' emitters can be attached to a shape, not '{}'",
+                                c.plugin_type
+                            ),
+                        ));
+                    }
+                    let radiance = c.rgb("radiance", [1.0; 3])?;
+                    c.check_unused(&["radiance"])?;
+                    parts.lights.push(Light::Area {
+                        shape: shape_index,
+                        radiance: Rgb(radiance),
+                    });
+                    light = Some(parts.lights.len() as u32 - 1);
+                }
+                other => {
+                    return Err(SceneError::new(
+                        Some(c.loc.clone()),
+                        format!("<{other}> cannot be nested in a shape"),
+                    ))
+                }
+            }
+        }
+        let bsdf = match bsdf {
+            Some(b) => b,
+            None => {
+                // Mitsuba's default: diffuse with reflectance 0.5, or 0 on an emitting shape
+                let rho = if light.is_some() { 0.0 } else { 0.5 };
+                parts
+                    .bsdfs
+                    .push(Bsdf::Diffuse(specula_bsdf::models::Diffuse {
+                        reflectance: rho.into(),
+                    }));
+                parts.bsdfs.len() as u32 - 1
+            }
+        };
+        parts.geometry.push(geom);
+        parts.shape_bsdf.push(bsdf);
+        parts.shape_light.push(light);
+        Ok(())
+    }
+}
+
+fn bsdf_err(e: specula_bsdf::BuildError) -> SceneError {
+    SceneError::new(None, e.to_string())
+}

@@ -129,8 +129,8 @@ impl MicrofacetDistribution {
                 }
             }
             MicrofacetType::Beckmann => {
-                let a = 1.0 / (tan_theta_alpha_2 as f64).sqrt();
-                (1.0 / (1.0 + beckmann_lambda(a))) as f32
+                let a = 1.0 / tan_theta_alpha_2.sqrt();
+                1.0 / (1.0 + beckmann_lambda(a))
             }
             MicrofacetType::Ggx => 2.0 / (1.0 + (1.0 + tan_theta_alpha_2).sqrt()),
         }
@@ -210,11 +210,11 @@ impl MicrofacetDistribution {
 }
 
 /// Smith's Λ for the Beckmann distribution, a = 1/(α tanθ): (erf(a) − 1)/2 + e^(−a²)/(2a√π).
-pub fn beckmann_lambda(a: f64) -> f64 {
-    if a > 30.0 {
+pub fn beckmann_lambda(a: f32) -> f32 {
+    if a > 9.0 {
         return 0.0;
     }
-    0.5 * (-crate::math::erfc64(a) + (-a * a).exp() / (a * std::f64::consts::PI.sqrt()))
+    0.5 * ((-a * a).exp() / (a * std::f32::consts::PI.sqrt()) - crate::math::erfc32(a))
 }
 
 /// Visible normals of the unit-roughness GGX distribution: the projected-hemisphere

@@ -103,9 +103,17 @@ struct Prim {
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
     bvh: CwBvh,
-    /// Primitives in BVH leaf order (slot k of the CWBVH is `prims[k]`).
-    prims: Vec<Prim>,
+    /// Triangle vertices per leaf slot (slot k of the CWBVH), zero for analytic slots: the
+    /// only primitive data traversal touches for meshes, kept compact for the cache.
+    tris: Vec<[Vec3; 3]>,
+    /// Per slot: `TRIANGLE`, or the index of the analytic shape in `analytic`.
+    kind: Vec<u32>,
+    /// Per slot: (shape, primitive index), read only for the closest hit.
+    ids: Vec<(u32, u32)>,
+    analytic: Vec<PrimShape>,
 }
+
+const TRIANGLE: u32 = u32::MAX;
 
 /// How far (in units of t) the traversal origin is moved back along the ray, so that obvhs'
 /// node test, which ignores boxes with exit distance below 1e-4, never culls a box that holds
@@ -185,23 +193,42 @@ impl Bvh {
         // a thorough reinsertion pass: ~8 % faster traversal on meshes.xml than the medium preset
         ReinsertionOptimizer::run(&mut bvh2, config.reinsertion_batch_ratio, None);
         let bvh = bvh2_to_cwbvh(&bvh2, 3, true, false);
-        let prims = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| kept[i as usize])
-            .collect();
-        Bvh { bvh, prims }
+        let n = bvh.primitive_indices.len();
+        let mut out = Bvh {
+            tris: Vec::with_capacity(n),
+            kind: Vec::with_capacity(n),
+            ids: Vec::with_capacity(n),
+            analytic: Vec::new(),
+            bvh: CwBvh::default(),
+        };
+        for &i in &bvh.primitive_indices {
+            let p = kept[i as usize];
+            out.ids.push((p.geom, p.index));
+            match p.shape {
+                PrimShape::Triangle(v) => {
+                    out.tris.push(v);
+                    out.kind.push(TRIANGLE);
+                }
+                other => {
+                    out.tris.push([Vec3::ZERO; 3]);
+                    out.kind.push(out.analytic.len() as u32);
+                    out.analytic.push(other);
+                }
+            }
+        }
+        out.bvh = bvh;
+        out
     }
 
     /// Number of primitives (triangles, spheres, disks) in the BVH.
     pub fn primitive_count(&self) -> usize {
-        self.prims.len()
+        self.kind.len()
     }
 
     /// Walks the BVH, calling `visit(prim, t_max)` for every primitive whose box the ray
     /// enters before `*t_max`. `visit` may lower `*t_max`; returning `true` stops the walk.
     #[inline(always)]
-    fn traverse<F: FnMut(&Prim, &mut f32) -> bool>(
+    fn traverse<F: FnMut(usize, &mut f32) -> bool>(
         &self,
         ray: &Ray,
         t_max: &mut f32,
@@ -236,7 +263,7 @@ impl Bvh {
                 let local = firstbithigh(state.primitive_group.y);
                 state.primitive_group.y &= !(1u32 << local);
                 let slot = (state.primitive_group.x + local) as usize;
-                if visit(&self.prims[slot], t_max) {
+                if visit(slot, t_max) {
                     return;
                 }
                 tray.tmax = shifted_tmax(*t_max);
@@ -407,21 +434,38 @@ fn intersect_disk(ray: &Ray, m: &Mat3, tr: Vec3, t_max: f32) -> Option<(f32, f32
 }
 
 #[inline(always)]
-fn intersect_prim(p: &Prim, ray: &Ray, tri: &TriRay, t_max: f32) -> Option<Hit> {
-    let (t, u, v) = match &p.shape {
-        PrimShape::Triangle(v) => tri.intersect(v, t_max)?,
+fn intersect_shape(
+    shape: &PrimShape,
+    ray: &Ray,
+    tri: &TriRay,
+    t_max: f32,
+) -> Option<(f32, f32, f32)> {
+    match shape {
+        PrimShape::Triangle(v) => tri.intersect(v, t_max),
         PrimShape::Sphere { center, radius } => {
-            (intersect_sphere(ray, *center, *radius, t_max)?, 0.0, 0.0)
+            Some((intersect_sphere(ray, *center, *radius, t_max)?, 0.0, 0.0))
         }
-        PrimShape::Disk { m, t } => intersect_disk(ray, m, *t, t_max)?,
-    };
-    Some(Hit {
-        t,
-        shape: p.geom,
-        prim: p.index,
-        u,
-        v,
-    })
+        PrimShape::Disk { m, t } => intersect_disk(ray, m, *t, t_max),
+    }
+}
+
+impl Bvh {
+    /// Intersect the primitive in leaf slot `slot`: (t, u, v).
+    #[inline(always)]
+    fn intersect_slot(
+        &self,
+        slot: usize,
+        ray: &Ray,
+        tri: &TriRay,
+        t_max: f32,
+    ) -> Option<(f32, f32, f32)> {
+        let k = self.kind[slot];
+        if k == TRIANGLE {
+            tri.intersect(&self.tris[slot], t_max)
+        } else {
+            intersect_shape(&self.analytic[k as usize], ray, tri, t_max)
+        }
+    }
 }
 
 fn valid_ray(ray: &Ray) -> bool {
@@ -434,16 +478,26 @@ impl Intersector for Bvh {
             return None;
         }
         let tri = TriRay::new(ray);
-        let mut best = None;
         let mut t_max = ray.t_max;
-        self.traverse(ray, &mut t_max, |p, t_max| {
-            if let Some(h) = intersect_prim(p, ray, &tri, *t_max) {
-                *t_max = h.t;
-                best = Some(h);
+        // the closest hit so far: (slot, t, u, v); ids are looked up once, at the end
+        let mut best: Option<(usize, f32, f32, f32)> = None;
+        self.traverse(ray, &mut t_max, |slot, t_max| {
+            if let Some((t, u, v)) = self.intersect_slot(slot, ray, &tri, *t_max) {
+                *t_max = t;
+                best = Some((slot, t, u, v));
             }
             false
         });
-        best
+        best.map(|(slot, t, u, v)| {
+            let (shape, prim) = self.ids[slot];
+            Hit {
+                t,
+                shape,
+                prim,
+                u,
+                v,
+            }
+        })
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
@@ -453,8 +507,8 @@ impl Intersector for Bvh {
         let tri = TriRay::new(ray);
         let mut hit = false;
         let mut t_max = ray.t_max;
-        self.traverse(ray, &mut t_max, |p, t_max| {
-            hit = intersect_prim(p, ray, &tri, *t_max).is_some();
+        self.traverse(ray, &mut t_max, |slot, t_max| {
+            hit = self.intersect_slot(slot, ray, &tri, *t_max).is_some();
             hit
         });
         hit
@@ -533,20 +587,24 @@ mod tests {
 
     /// Every primitive of `geoms`, tested one by one with the same primitive routines.
     fn brute_force(geoms: &[Geometry], ray: &Ray) -> Option<Hit> {
-        let bvh_prims: Vec<Prim> = {
-            let b = Bvh::build(geoms);
-            b.prims
-        };
-        brute_force_prims(&bvh_prims, ray)
+        brute_force_bvh(&Bvh::build(geoms), ray)
     }
 
-    fn brute_force_prims(prims: &[Prim], ray: &Ray) -> Option<Hit> {
+    /// Every leaf slot of `bvh`, tested one by one (no traversal).
+    fn brute_force_bvh(bvh: &Bvh, ray: &Ray) -> Option<Hit> {
         let tri = TriRay::new(ray);
         let mut best: Option<Hit> = None;
-        for p in prims {
+        for slot in 0..bvh.primitive_count() {
             let t_max = best.map_or(ray.t_max, |h| h.t);
-            if let Some(h) = intersect_prim(p, ray, &tri, t_max) {
-                best = Some(h);
+            if let Some((t, u, v)) = bvh.intersect_slot(slot, ray, &tri, t_max) {
+                let (shape, prim) = bvh.ids[slot];
+                best = Some(Hit {
+                    t,
+                    shape,
+                    prim,
+                    u,
+                    v,
+                });
             }
         }
         best
@@ -558,7 +616,6 @@ mod tests {
         let bvh = Bvh::build(&geoms);
         let total: usize = geoms.iter().map(|g| g.primitive_count()).sum();
         assert_eq!(bvh.primitive_count(), total);
-        let prims = bvh.prims.clone();
         let mut rng = Rng(7);
         let (lo, hi) = (Vec3::new(-4.0, -1.0, -4.0), Vec3::new(4.0, 4.0, 4.0));
         let mut hits = 0;
@@ -576,7 +633,7 @@ mod tests {
                 f32::INFINITY
             };
             let ray = Ray { o, d, t_max };
-            let want = brute_force_prims(&prims, &ray);
+            let want = brute_force_bvh(&bvh, &ray);
             let got = bvh.intersect(&ray);
             match (got, want) {
                 (None, None) => {}

@@ -100,13 +100,21 @@ struct Parts {
 }
 
 impl Builder {
-    fn resolve_path(&self, name: &str) -> PathBuf {
+    /// A file named by a parameter declared at `loc`: relative to the directory of the file
+    /// that declares it (an `<include>`d file), then to the main scene's directory — like
+    /// Mitsuba's file resolver.
+    fn resolve_from(&self, loc: &Loc, name: &str) -> PathBuf {
         let p = Path::new(name);
         if p.is_absolute() {
-            p.to_path_buf()
-        } else {
-            self.base.join(p)
+            return p.to_path_buf();
         }
+        if let Some(dir) = Path::new(&loc.file).parent() {
+            let candidate = dir.join(p);
+            if candidate.exists() {
+                return candidate;
+            }
+        }
+        self.base.join(p)
     }
 
     fn build(mut self, root: &Node) -> Result<Scene> {
@@ -416,7 +424,7 @@ impl Builder {
                     "to_uv",
                     "format",
                 ])?;
-                let path = self.resolve_path(&file);
+                let path = self.resolve_from(&n.loc, &file);
                 let b = Bitmap::load(&path, &filter, &wrap, raw, to_uv)
                     .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
                 Arc::new(b)
@@ -439,6 +447,10 @@ impl Builder {
                 PropValue::Float(v) => Value::Float(*v),
                 PropValue::Int(v) => Value::Int(*v),
                 PropValue::Bool(v) => Value::Bool(*v),
+                // data files of measured materials resolve relative to the scene file
+                PropValue::Str(v) if p.name == "filename" => {
+                    Value::Str(self.resolve_from(&p.loc, v).to_string_lossy().into_owned())
+                }
                 PropValue::Str(v) => Value::Str(v.clone()),
                 PropValue::Rgb(v) => Value::Rgb(Rgb(*v)),
                 PropValue::Spectrum(v) => Value::Float(*v as f64),
@@ -525,7 +537,7 @@ impl Builder {
             "obj" | "ply" => {
                 let file = n.string_opt("filename")?.ok_or_else(|| SceneError::new(Some(n.loc.clone()), format!("{} needs 'filename'", n.plugin_type)))?;
                 let face_normals = n.bool("face_normals", false)?;
-                let path = self.resolve_path(&file);
+                let path = self.resolve_from(&n.loc, &file);
 let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } else { crate::mesh_io::load_ply(&path) }
                     .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
                 // Mitsuba's OBJ loader flips v unless told not to (load_obj flips, as the default)

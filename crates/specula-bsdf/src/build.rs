@@ -95,6 +95,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
     ("sheen", &["reflectance", "roughness"]),
     ("twosided", &[]),
     ("blendbsdf", &["weight"]),
+    ("measured", &["filename"]),
 ];
 
 /// Parameters a plugin accepts, or `None` for an unknown plugin.
@@ -401,6 +402,18 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
                 weight,
                 bsdfs: [a, b],
             }))
+        }
+        "measured" => {
+            let file = p.string("filename", "")?;
+            if file.is_empty() {
+                return Err(BuildError::new(
+                    p.loc.clone(),
+                    "'measured' needs parameter 'filename' (an RGL .bsdf tensor file)",
+                ));
+            }
+            let rgl = crate::measured::rgl::Rgl::load(&file)
+                .map_err(|e| BuildError::new(p.loc.clone(), e.to_string()))?;
+            Bsdf::Measured(std::sync::Arc::new(rgl))
         }
         _ => unreachable!("plugin table and match agree"),
     };

@@ -22,6 +22,7 @@ pub mod data;
 pub mod frame;
 pub mod fresnel;
 pub mod math;
+pub mod measured;
 pub mod microfacet;
 pub mod models;
 pub mod props;

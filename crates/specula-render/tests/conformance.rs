@@ -3,7 +3,6 @@
 //! `../shared/README.md` against Mitsuba's own 64-spp figures in `metrics.json`:
 //! every channel of the mean ratio within 1 ± 0.01 (± 0.02 where the reference has more than
 //! 1024 spp), block8 ≤ 2 × Mitsuba's + 1e-5, relMSE ≤ 1.5 × Mitsuba's.
-//! Scenes with `measured` BSDFs belong to the measured-BRDF work and are listed as skipped.
 
 use specula_render::image_io::read_image;
 use specula_render::metrics::{block8, mean_ratio, relmse, RgbImage};
@@ -56,15 +55,6 @@ fn renders_match_mitsuba_references() {
             continue;
         };
         if !reference_path.exists() {
-            continue;
-        }
-        if std::fs::read_to_string(path)
-            .unwrap()
-            .contains("type=\"measured\"")
-        {
-            rows.push(format!(
-                "{name:<24} skipped: measured BSDF (measured-BRDF issue)"
-            ));
             continue;
         }
         let scene = match Scene::load(path, &[("spp".into(), "64".into())]) {

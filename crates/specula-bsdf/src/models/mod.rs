@@ -45,6 +45,8 @@ pub enum Bsdf {
     Sheen(Sheen),
     TwoSided(Box<TwoSided>),
     Blend(Box<Blend>),
+    /// Mitsuba's `measured`: an RGL tensor file (Dupuy & Jakob 2018), shared between copies.
+    Measured(std::sync::Arc<crate::measured::rgl::Rgl>),
 }
 
 macro_rules! dispatch {
@@ -61,6 +63,7 @@ macro_rules! dispatch {
             Bsdf::Sheen($b) => $e,
             Bsdf::TwoSided($b) => $e,
             Bsdf::Blend($b) => $e,
+            Bsdf::Measured($b) => $e,
         }
     };
 }
@@ -80,6 +83,7 @@ impl Bsdf {
             Bsdf::Sheen(_) => "sheen",
             Bsdf::TwoSided(_) => "twosided",
             Bsdf::Blend(_) => "blendbsdf",
+            Bsdf::Measured(_) => "measured",
         }
     }
 }

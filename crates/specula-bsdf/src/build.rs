@@ -96,6 +96,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
     ("twosided", &[]),
     ("blendbsdf", &["weight"]),
     ("measured", &["filename"]),
+    ("merl", &["filename", "interpolate"]),
 ];
 
 /// Parameters a plugin accepts, or `None` for an unknown plugin.
@@ -414,6 +415,19 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
             let rgl = crate::measured::rgl::Rgl::load(&file)
                 .map_err(|e| BuildError::new(p.loc.clone(), e.to_string()))?;
             Bsdf::Measured(std::sync::Arc::new(rgl))
+        }
+        "merl" => {
+            let file = p.string("filename", "")?;
+            if file.is_empty() {
+                return Err(BuildError::new(
+                    p.loc.clone(),
+                    "'merl' needs parameter 'filename' (a MERL .binary file)",
+                ));
+            }
+            let mut m = crate::measured::merl::Merl::read(std::path::Path::new(&file))
+                .map_err(|e| BuildError::new(p.loc.clone(), e.to_string()))?;
+            m.interpolate = p.bool("interpolate", false)?;
+            Bsdf::Merl(m)
         }
         _ => unreachable!("plugin table and match agree"),
     };

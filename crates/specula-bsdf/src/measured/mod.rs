@@ -1,1 +1,2 @@
+pub mod merl;
 pub mod rgl;

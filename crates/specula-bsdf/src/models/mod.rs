@@ -47,6 +47,8 @@ pub enum Bsdf {
     Blend(Box<Blend>),
     /// Mitsuba's `measured`: an RGL tensor file (Dupuy & Jakob 2018), shared between copies.
     Measured(std::sync::Arc<crate::measured::rgl::Rgl>),
+    /// A MERL table (Matusik et al. 2003), Specula's `merl` plugin.
+    Merl(crate::measured::merl::Merl),
 }
 
 macro_rules! dispatch {
@@ -64,6 +66,7 @@ macro_rules! dispatch {
             Bsdf::TwoSided($b) => $e,
             Bsdf::Blend($b) => $e,
             Bsdf::Measured($b) => $e,
+            Bsdf::Merl($b) => $e,
         }
     };
 }
@@ -84,6 +87,7 @@ impl Bsdf {
             Bsdf::TwoSided(_) => "twosided",
             Bsdf::Blend(_) => "blendbsdf",
             Bsdf::Measured(_) => "measured",
+            Bsdf::Merl(_) => "merl",
         }
     }
 }

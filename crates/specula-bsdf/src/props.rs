@@ -245,13 +245,10 @@ impl Props {
 
     /// A scalar that may be textured.
     pub fn float_param(&self, name: &str, default: f32) -> Result<FloatParam, BuildError> {
-        match self.get(name) {
-            Some(p) if matches!(p.value, Value::Texture(_)) => match &p.value {
-                Value::Texture(t) => Ok(FloatParam::Texture(t.clone())),
-                _ => unreachable!(),
-            },
-            Some(_) => Ok(FloatParam::Const(self.float(name, default)?)),
-            None => Ok(FloatParam::Const(default)),
+        match self.get(name).map(|p| &p.value) {
+            Some(Value::Texture(t)) => Ok(FloatParam::Texture(t.clone())),
+            // numbers (and type errors) are handled by `float`
+            _ => Ok(FloatParam::Const(self.float(name, default)?)),
         }
     }
 

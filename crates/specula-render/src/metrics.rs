@@ -16,6 +16,20 @@ pub struct RgbImage {
     pub data: Vec<f32>,
 }
 
+impl From<&crate::image_io::Image> for RgbImage {
+    /// RGB from an image of 1 (grey), 3 or 4 channels (alpha dropped).
+    fn from(img: &crate::image_io::Image) -> Self {
+        let c = img.channels;
+        RgbImage {
+            width: img.width,
+            height: img.height,
+            data: (0..img.width * img.height)
+                .flat_map(|i| (0..3).map(move |k| img.data[i * c + k.min(c - 1)]))
+                .collect(),
+        }
+    }
+}
+
 const HUGE: f64 = 1e30;
 
 /// Trimmed relative MSE.

@@ -72,14 +72,7 @@ fn renders_match_mitsuba_references() {
         let out = render(&scene, &opts, &AtomicBool::new(false), &|_, _| {});
         rendered += 1;
         let (refimg, _) = read_image(&reference_path).unwrap();
-        let reference = RgbImage {
-            width: refimg.width,
-            height: refimg.height,
-            data: (0..refimg.width * refimg.height)
-                .flat_map(|i| (0..3).map(move |c| (i, c)))
-                .map(|(i, c)| refimg.data[i * refimg.channels + c.min(refimg.channels - 1)])
-                .collect(),
-        };
+        let reference = RgbImage::from(&refimg);
         if (out.width, out.height) != (reference.width, reference.height) {
             failures.push(format!(
                 "{name}: rendered {}×{}, reference {}×{}",

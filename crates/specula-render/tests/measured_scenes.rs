@@ -33,18 +33,6 @@ fn replace_bsdf(xml: &str, kind: &str, replacement: &str) -> String {
     format!("{}{}{}", &xml[..start], replacement, &xml[end..])
 }
 
-fn to_rgb(img: specula_render::image_io::Image) -> RgbImage {
-    let c = img.channels;
-    let data = &img.data;
-    RgbImage {
-        width: img.width,
-        height: img.height,
-        data: (0..img.width * img.height)
-            .flat_map(|i| (0..3).map(move |k| data[i * c + k.min(c - 1)]))
-            .collect(),
-    }
-}
-
 #[test]
 fn merl_copies_of_analytic_materials_match_their_references() {
     let Some(shared) = shared() else { return };
@@ -98,7 +86,7 @@ fn merl_copies_of_analytic_materials_match_their_references() {
         };
         let (reference, _) =
             read_image(&shared.join("reference").join(format!("{scene}.exr"))).unwrap();
-        let reference = to_rgb(reference);
+        let reference = RgbImage::from(&reference);
         let (mr, b, r) = (
             mean_ratio(&img, &reference),
             block8(&img, &reference),

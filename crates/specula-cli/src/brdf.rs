@@ -6,7 +6,7 @@ use clap::{Args, Subcommand, ValueEnum};
 use glam::Vec3;
 use specula_bsdf::build::PLUGINS;
 use specula_bsdf::data::{NAMED_CONDUCTORS, NAMED_IORS};
-use specula_bsdf::{parse_spec, BsdfContext, BsdfModel, ShadingPoint, TransportMode};
+use specula_bsdf::{BsdfContext, BsdfModel, ShadingPoint, TransportMode};
 
 use crate::output::{num, rgb, CliError};
 
@@ -21,8 +21,9 @@ pub enum BrdfCommand {
 
 #[derive(Debug, Args)]
 pub struct EvalArgs {
-    /// Material spec, e.g. "roughconductor material=Cu alpha=0.2 distribution=ggx" (quoted, or
-    /// as separate words)
+    /// Material: a spec such as "roughconductor material=Cu alpha=0.2" (quoted, or as separate
+    /// words), an XML snippet '<bsdf type=…>…</bsdf>', a MERL .binary or RGL .bsdf file, or
+    /// scene.xml#id
     #[arg(required = true, num_args = 1.., value_name = "MATERIAL")]
     pub material: Vec<String>,
     /// Polar angle of wi (towards the viewer) from the normal, in degrees; beyond 90° it lies
@@ -85,8 +86,9 @@ fn eval(args: &EvalArgs, out: &mut dyn Write) -> Result<(), CliError> {
     if !args.phi_o.is_finite() {
         return Err(CliError::usage("--phi-o must be a finite number"));
     }
-    let spec = args.material.join(" ");
-    let bsdf = parse_spec(&spec).map_err(CliError::usage)?;
+    let material = crate::material::load_material(&args.material)?;
+    let spec = material.label.as_str();
+    let bsdf = &material.bsdf;
     let ctx = BsdfContext {
         mode: match args.mode {
             Mode::Radiance => TransportMode::Radiance,

@@ -6,6 +6,7 @@
 
 mod brdf;
 mod fresnel;
+mod material;
 mod output;
 mod render;
 

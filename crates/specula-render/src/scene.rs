@@ -79,6 +79,114 @@ impl Scene {
     }
 }
 
+/// Builds the BSDF with id `id` from the scene file at `path` (a top-level `<bsdf>` or one
+/// nested in a shape), with the scene's `<default>`s and `overrides`; textures it references
+/// by id are built too. Nothing else of the scene is loaded.
+pub fn load_bsdf_by_id(path: &Path, id: &str, overrides: &[(String, String)]) -> Result<Bsdf> {
+    let root = crate::xml::load_scene(path, overrides)?;
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    find_and_build_bsdf(&root, base, Some(id)).map_err(|e| match e {
+        Some(e) => e,
+        None => SceneError::new(
+            Some(root.loc.clone()),
+            format!(
+                "the scene has no <bsdf id=\"{id}\">{}",
+                bsdf_ids_hint(&root)
+            ),
+        ),
+    })
+}
+
+/// Builds a BSDF from an XML snippet such as `<bsdf type="twosided"><bsdf type="diffuse"/></bsdf>`
+/// (Mitsuba 3 syntax; several elements may be given, the last `<bsdf>` is built and earlier
+/// `<texture id=…>`s may be referenced). `label` names the text in messages; files resolve
+/// against `base_dir`.
+pub fn bsdf_from_xml_str(text: &str, label: &str, base_dir: &Path) -> Result<Bsdf> {
+    // offset the snippet onto line 1 of the wrapper so that locations stay right
+    let wrapped = format!("<scene version=\"3.0.0\">{text}</scene>");
+    let root = crate::xml::parse_scene_str(&wrapped, label, base_dir, &[])?;
+    find_and_build_bsdf(&root, base_dir.to_path_buf(), None).map_err(|e| {
+        e.unwrap_or_else(|| {
+            SceneError::new(Some(root.loc.clone()), "the text has no <bsdf> element")
+        })
+    })
+}
+
+fn bsdf_ids_hint(root: &Node) -> String {
+    let mut ids = vec![];
+    fn walk(n: &Node, ids: &mut Vec<String>) {
+        for c in &n.children {
+            if c.tag == "bsdf" {
+                if let Some(id) = &c.id {
+                    ids.push(id.clone());
+                }
+            }
+            if c.tag == "shape" {
+                walk(c, ids);
+            }
+        }
+    }
+    walk(root, &mut ids);
+    if ids.is_empty() {
+        " (it defines no BSDF ids)".into()
+    } else {
+        format!(" (BSDF ids: {})", ids.join(", "))
+    }
+}
+
+/// Walks the top level (and shapes) in order, registering textures; builds the BSDF whose id is
+/// `id`, or the last top-level `<bsdf>` when `id` is None. `Err(None)`: not found.
+fn find_and_build_bsdf(
+    root: &Node,
+    base: PathBuf,
+    id: Option<&str>,
+) -> std::result::Result<Bsdf, Option<SceneError>> {
+    let mut b = Builder {
+        base,
+        ids: HashMap::new(),
+        bsdf_ids: HashMap::new(),
+        texture_ids: HashMap::new(),
+    };
+    let mut last = None;
+    for child in &root.children {
+        if let Some(cid) = &child.id {
+            b.ids
+                .insert(cid.clone(), (child.tag.clone(), child.loc.clone()));
+        }
+        match child.tag.as_str() {
+            "texture" => {
+                let t = b.texture(child).map_err(Some)?;
+                if let Some(cid) = &child.id {
+                    b.texture_ids.insert(cid.clone(), t);
+                }
+            }
+            "bsdf" => match id {
+                Some(want) if child.id.as_deref() == Some(want) => {
+                    return b.bsdf(child).map_err(Some)
+                }
+                None => last = Some(child),
+                _ => {}
+            },
+            "shape" => {
+                if let Some(want) = id {
+                    if let Some(n) = child
+                        .children
+                        .iter()
+                        .find(|c| c.tag == "bsdf" && c.id.as_deref() == Some(want))
+                    {
+                        return b.bsdf(n).map_err(Some);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    match last {
+        Some(n) => b.bsdf(n).map_err(Some),
+        None => Err(None),
+    }
+}
+
 fn loc_str(l: &Loc) -> Option<String> {
     Some(l.to_string())
 }

@@ -8,6 +8,7 @@ mod brdf;
 mod fresnel;
 mod material;
 mod output;
+mod plot;
 mod render;
 
 use clap::{Parser, Subcommand};

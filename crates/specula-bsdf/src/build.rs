@@ -96,7 +96,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
     ("twosided", &[]),
     ("blendbsdf", &["weight"]),
     ("measured", &["filename"]),
-    ("merl", &["filename", "interpolate"]),
+    ("merl", &["filename", "interpolate", "sampling"]),
 ];
 
 /// Parameters a plugin accepts, or `None` for an unknown plugin.
@@ -427,6 +427,16 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
             let mut m = crate::measured::merl::Merl::read(std::path::Path::new(&file))
                 .map_err(|e| BuildError::new(p.loc.clone(), e.to_string()))?;
             m.interpolate = p.bool("interpolate", false)?;
+            m.sampling = match p.string("sampling", "tabulated")?.as_str() {
+                "tabulated" => crate::measured::merl::MerlSampling::Tabulated,
+                "cosine" => crate::measured::merl::MerlSampling::Cosine,
+                other => {
+                    return Err(BuildError::new(
+                        p.loc.clone(),
+                        format!("'merl': sampling must be 'tabulated' or 'cosine', got '{other}'"),
+                    ))
+                }
+            };
             Bsdf::Merl(m)
         }
         _ => unreachable!("plugin table and match agree"),

@@ -347,7 +347,9 @@ fn sample_weights_and_pdfs_are_consistent() {
     tables.extend(shared(PLASTIC));
     let mut failures = Vec::new();
     for m in tables {
-        for m in [m.clone(), interpolated(m)] {
+        let mut cosine = m.clone();
+        cosine.sampling = specula_bsdf::measured::merl::MerlSampling::Cosine;
+        for m in [m.clone(), interpolated(m), cosine] {
             for ctx in [BsdfContext::RADIANCE, BsdfContext::IMPORTANCE] {
                 for theta in [0.0, 30.0, 60.0, 80.0, 89.0] {
                     let r = check::sample_consistency(&m, &ctx, &sp, direction(theta), 20_000, 5);

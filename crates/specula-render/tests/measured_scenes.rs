@@ -114,3 +114,89 @@ fn merl_copies_of_analytic_materials_match_their_references() {
     std::fs::remove_dir_all(&dir).ok();
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// Renders `scene` with its `kind` BSDF replaced by the MERL table `table` (extra `merl`
+/// parameters in `params`) at `spp`; returns the image, the render time and the invalid count.
+fn render_merl_copy(
+    shared: &std::path::Path,
+    dir: &std::path::Path,
+    scene: &str,
+    kind: &str,
+    table: &str,
+    params: &str,
+    spp: u32,
+) -> (RgbImage, f64, u64) {
+    let xml = std::fs::read_to_string(shared.join("scenes").join(format!("{scene}.xml"))).unwrap();
+    let merl = shared.join("data/merl").join(table);
+    let text = replace_bsdf(
+        &xml,
+        kind,
+        &format!(
+            "<bsdf type=\"merl\"><string name=\"filename\" value=\"{}\"/>{params}</bsdf>",
+            merl.display()
+        ),
+    );
+    let path = dir.join(format!("{scene}_merl_{}.xml", params.len()));
+    std::fs::write(&path, text).unwrap();
+    let s = Scene::load(&path, &[("spp".into(), spp.to_string())]).unwrap();
+    let out = render(
+        &s,
+        &RenderOptions {
+            spp,
+            seed: 7,
+            threads: 0,
+        },
+        &AtomicBool::new(false),
+        &|_, _| {},
+    );
+    (
+        RgbImage {
+            width: out.width,
+            height: out.height,
+            data: out.rgb,
+        },
+        out.elapsed.as_secs_f64(),
+        out.counters.invalid,
+    )
+}
+
+/// Issue target: importance sampling the MERL table lowers relMSE (against Mitsuba's converged
+/// reference) at equal spp by at least 4× compared with cosine-weighted sampling, on
+/// `mat_rough_copper` rendered with the MERL copy of its material. Both renders use the same
+/// seed and spp; everything but the copper's sampling strategy (the diffuse floor, the light
+/// sampling) is identical, so the ratio understates the gain on the copper itself.
+#[test]
+fn tabulated_merl_sampling_beats_cosine_sampling() {
+    let Some(shared) = shared() else { return };
+    let dir = std::env::temp_dir().join(format!("specula-merl-var-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (reference, _) = read_image(&shared.join("reference/mat_rough_copper.exr")).unwrap();
+    let reference = RgbImage::from(&reference);
+    let spp = 32;
+    let mut results = vec![];
+    for (name, params) in [
+        ("tabulated", ""),
+        ("cosine", "<string name=\"sampling\" value=\"cosine\"/>"),
+    ] {
+        let (img, t, invalid) = render_merl_copy(
+            &shared,
+            &dir,
+            "mat_rough_copper",
+            "roughconductor",
+            "mitsuba_rough_copper.binary",
+            params,
+            spp,
+        );
+        assert_eq!(invalid, 0, "{name}: invalid samples");
+        let r = relmse(&img, &reference);
+        println!("mat_rough_copper (MERL, {name} sampling, {spp} spp): relMSE {r:.4e}, {t:.1}s");
+        results.push(r);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+    let gain = results[1] / results[0];
+    println!("variance reduction (relMSE cosine / tabulated): {gain:.1}×");
+    assert!(
+        gain >= 4.0,
+        "relMSE reduction only {gain:.2}× (target ≥ 4×)"
+    );
+}

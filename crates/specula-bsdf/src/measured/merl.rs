@@ -282,7 +282,21 @@ pub struct Merl {
     /// Multilinear interpolation between bin centres instead of the reference reader's
     /// nearest-bin lookup (default `false`). Sampling does not depend on it.
     pub interpolate: bool,
+    /// How `sample` draws directions (default: the tabulated half-vector distribution).
+    pub sampling: MerlSampling,
     data: Arc<MerlData>,
+}
+
+/// Sampling strategy of a [`Merl`] material (the `sampling` parameter of the `merl` plugin).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MerlSampling {
+    /// Importance sampling of the data: a mixture of the per-θi tabulated half-vector
+    /// distributions and [`COSINE_FRACTION`] cosine-weighted sampling.
+    #[default]
+    Tabulated,
+    /// Cosine-weighted hemisphere sampling only: the baseline against which the tabulated
+    /// strategy's variance reduction is measured.
+    Cosine,
 }
 
 struct MerlData {
@@ -412,6 +426,7 @@ impl Merl {
         let sampler = Sampler::build(&table);
         Merl {
             interpolate: false,
+            sampling: MerlSampling::Tabulated,
             data: Arc::new(MerlData {
                 name,
                 table,
@@ -799,6 +814,9 @@ impl BsdfModel for Merl {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return 0.0;
         }
+        if self.sampling == MerlSampling::Cosine {
+            return warp::square_to_cosine_hemisphere_pdf(wo);
+        }
         COSINE_FRACTION * warp::square_to_cosine_hemisphere_pdf(wo)
             + (1.0 - COSINE_FRACTION) * self.pdf_table(wi, wo)
     }
@@ -815,7 +833,7 @@ impl BsdfModel for Merl {
         if wi.z <= 0.0 {
             return None;
         }
-        let wo = if u1 < COSINE_FRACTION {
+        let wo = if self.sampling == MerlSampling::Cosine || u1 < COSINE_FRACTION {
             warp::square_to_cosine_hemisphere(u2)
         } else {
             let flip = (u1 - COSINE_FRACTION) < 0.5 * (1.0 - COSINE_FRACTION);

@@ -17,6 +17,50 @@ pub enum BrdfCommand {
     Eval(EvalArgs),
     /// List the material plugins, their parameters and the named optical constants.
     List,
+    /// Check a material: non-negativity and finiteness, reciprocity, energy conservation
+    /// (white-furnace albedo ≤ 1), sampling (χ² of sample() against pdf(), or the
+    /// lobe-selection test for Dirac materials) and sample-weight consistency, at several
+    /// incidence angles; prints a verdict table and exits with status 1 if a check fails.
+    Check(crate::check::CheckArgs),
+    /// Draw the scattering lobe in the plane of incidence (PNG or SVG): a polar plot of f·cosθo
+    /// (or f) for several incidence angles, one curve each, the incident directions as arrows;
+    /// materials that transmit get the lower half plane, Dirac lobes are dashed rays. Default
+    /// size 900x500, or 900x700 with transmission.
+    ///
+    /// Example: `specula brdf plot "roughconductor material=Cu alpha=0.2" -o lobe.png`
+    Plot(crate::plot::lobe::LobeArgs),
+    /// Draw BRDF Explorer's image slice (PNG or SVG): f over θh (x) and θd (y) at a fixed φd,
+    /// on a logarithmic colour scale; a MERL table is shown bin by bin.
+    ///
+    /// Example: `specula brdf slice copper.binary --phi-d 90 -o slice.png`
+    Slice(crate::plot::slice::SliceArgs),
+    /// Directional albedo ρ(θi) = ∫ f·|cosθo| dωo against θi per channel (the white-furnace
+    /// view: where a model loses energy), split into reflection and transmission; prints the
+    /// table and draws it (PNG or SVG) with a reference line at 1.
+    ///
+    /// Example: `specula brdf albedo "roughconductor alpha=0.8" -o albedo.png`
+    Albedo(crate::plot::albedo::AlbedoArgs),
+    /// Tabulate a material's reflection into a MERL table (a virtual gonioreflectometer).
+    ///
+    /// f is evaluated at the centre of each of the 90 θh × 90 θd × 180 φd half/difference
+    /// bins and stored in MERL's layout and scale; configurations below the horizon are stored
+    /// as −1 (not measured). Only the reflection hemisphere is tabulated (a material's
+    /// transmission is left out), and materials with Dirac lobes (conductor, dielectric,
+    /// plastic, …) cannot be.
+    ///
+    /// Example: `specula brdf measure "roughconductor material=Au alpha=0.3" -o gold.binary`
+    Measure(crate::fit::MeasureArgs),
+    /// Fit an analytic material to a MERL table and print it as Mitsuba 3 XML.
+    ///
+    /// Families: a rough conductor (per-channel F0 and edge tint, i.e. eta/k, plus a
+    /// Lambertian kd) and Specula's roughplastic (diffuse reflectance, int_ior), each with
+    /// one roughness alpha; the one with the lower error is kept unless --family names one.
+    /// The error compares f·cosθi·cosθo after a cube root or ln(1 + x), weighted by the solid
+    /// angle of each bin. Prints the parameters (alpha=…), the material as Mitsuba 3 XML and
+    /// as a Specula spec, and the error of that XML over the whole table.
+    ///
+    /// Example: `specula brdf fit copper.binary --model ggx`
+    Fit(crate::fit::FitArgs),
 }
 
 #[derive(Debug, Args)]
@@ -58,6 +102,12 @@ pub fn run(cmd: BrdfCommand, out: &mut dyn Write) -> Result<(), CliError> {
     match cmd {
         BrdfCommand::Eval(args) => eval(&args, out),
         BrdfCommand::List => list(out),
+        BrdfCommand::Check(args) => crate::check::run(&args, out),
+        BrdfCommand::Plot(args) => crate::plot::lobe::run(&args, out),
+        BrdfCommand::Slice(args) => crate::plot::slice::run(&args, out),
+        BrdfCommand::Albedo(args) => crate::plot::albedo::run(&args, out),
+        BrdfCommand::Measure(args) => crate::fit::measure(&args, out),
+        BrdfCommand::Fit(args) => crate::fit::fit(&args, out),
     }
 }
 

@@ -1,8 +1,9 @@
-//! `specula fresnel`: Fresnel reflectance tables for dielectrics and named conductors.
+//! `specula fresnel`: Fresnel reflectance tables for dielectrics and named conductors, and
+//! `specula fresnel plot`, which draws them (see [`crate::plot::fresnel`]).
 
 use std::io::Write;
 
-use clap::Args;
+use clap::{Args, Subcommand};
 use specula_bsdf::data::{lookup_conductor, lookup_ior, NAMED_CONDUCTORS, NAMED_IORS};
 use specula_bsdf::fresnel::{
     brewster_angle, critical_angle, fresnel_conductor_rgb, fresnel_dielectric,
@@ -13,7 +14,10 @@ use specula_bsdf::Spectrum;
 use crate::output::CliError;
 
 #[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct FresnelArgs {
+    #[command(subcommand)]
+    pub command: Option<FresnelCommand>,
     /// Relative index of refraction η = n_inside / n_outside: a number or a named dielectric
     /// (water, bk7, diamond, "acrylic glass", …) [default: 1.5]
     #[arg(long, value_name = "IOR", conflicts_with = "material")]
@@ -26,7 +30,23 @@ pub struct FresnelArgs {
     pub steps: u32,
 }
 
+#[derive(Debug, Subcommand)]
+pub enum FresnelCommand {
+    /// Draw the reflectance against the angle of incidence (PNG or SVG): Rs, Rp, their mean and
+    /// Schlick's approximation of a dielectric with Brewster's angle marked (`--inside`: seen
+    /// from inside, total internal reflection past the critical angle), or a named conductor's
+    /// reflectance per RGB channel (`--material Cu`).
+    ///
+    /// Examples: `specula fresnel plot --ior 1.5 -o fresnel.png`,
+    /// `specula fresnel plot --ior water --inside -o water.svg`,
+    /// `specula fresnel plot --material Cu -o cu.png`.
+    Plot(crate::plot::fresnel::FresnelPlotArgs),
+}
+
 pub fn run(args: &FresnelArgs, out: &mut dyn Write) -> Result<(), CliError> {
+    if let Some(FresnelCommand::Plot(plot)) = &args.command {
+        return crate::plot::fresnel::run(plot, out);
+    }
     match &args.material {
         Some(name) => conductor_table(name, args.steps, out),
         None => {
@@ -39,7 +59,7 @@ pub fn run(args: &FresnelArgs, out: &mut dyn Write) -> Result<(), CliError> {
 }
 
 /// A positive number, or a name from Mitsuba's table of dielectrics (case-insensitive).
-fn parse_ior(s: &str) -> Result<f32, CliError> {
+pub(crate) fn parse_ior(s: &str) -> Result<f32, CliError> {
     let s = s.trim();
     if let Ok(v) = s.parse::<f32>() {
         return if v.is_finite() && v > 0.0 {
@@ -136,7 +156,7 @@ fn dielectric_table(
 }
 
 /// Exact name, else a unique case-insensitive match.
-fn find_conductor(name: &str) -> Option<(String, [f32; 3], [f32; 3])> {
+pub(crate) fn find_conductor(name: &str) -> Option<(String, [f32; 3], [f32; 3])> {
     if let Some((e, k)) = lookup_conductor(name) {
         return Some((name.to_string(), e, k));
     }
@@ -149,13 +169,18 @@ fn find_conductor(name: &str) -> Option<(String, [f32; 3], [f32; 3])> {
     }
 }
 
+/// The error for a conductor name that is not in the table.
+pub(crate) fn unknown_conductor(name: &str) -> CliError {
+    let names: Vec<&str> = NAMED_CONDUCTORS.iter().map(|(n, _, _)| *n).collect();
+    CliError::usage(format!(
+        "unknown conductor '{name}'; known: none, {}",
+        names.join(", ")
+    ))
+}
+
 fn conductor_table(name: &str, steps: u32, out: &mut dyn Write) -> Result<(), CliError> {
     let Some((name, eta, k)) = find_conductor(name.trim()) else {
-        let names: Vec<&str> = NAMED_CONDUCTORS.iter().map(|(n, _, _)| *n).collect();
-        return Err(CliError::usage(format!(
-            "unknown conductor '{name}'; known: none, {}",
-            names.join(", ")
-        )));
+        return Err(unknown_conductor(name));
     };
     writeln!(
         out,

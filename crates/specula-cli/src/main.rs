@@ -5,7 +5,10 @@
 //! new variants with their own argument struct and module.
 
 mod brdf;
+mod check;
+mod fit;
 mod fresnel;
+mod gallery;
 mod material;
 mod output;
 mod plot;
@@ -27,10 +30,13 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Fresnel reflectance vs incidence angle: a dielectric (`--ior`) or a named conductor
-    /// (`--material`).
+    /// (`--material`); `specula fresnel plot …` draws it.
     Fresnel(fresnel::FresnelArgs),
     /// Render a Mitsuba 3 scene (XML) to OpenEXR or PNG.
     Render(render::RenderArgs),
+    /// Render a labelled contact sheet (PNG) of material previews: every built-in preset and
+    /// any materials given, each on a sphere on a checkerboard floor under a procedural sky.
+    Gallery(gallery::GalleryArgs),
     /// Work with a single material given as a one-line spec.
     Brdf {
         #[command(subcommand)]
@@ -43,6 +49,7 @@ fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), CliError> {
         Command::Fresnel(args) => fresnel::run(&args, out),
         Command::Brdf { command } => brdf::run(command, out),
         Command::Render(args) => render::run(&args, out),
+        Command::Gallery(args) => gallery::run(&args, out),
     }
 }
 

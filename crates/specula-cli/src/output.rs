@@ -8,6 +8,9 @@ use std::process::ExitCode;
 /// uses for usage errors.
 pub const EXIT_USAGE: u8 = 2;
 
+/// Exit code of `specula brdf check` when a check fails (distinct from usage errors).
+pub const EXIT_CHECKS_FAILED: u8 = 1;
+
 /// A command failure, printed as a single `error: …` line.
 #[derive(Debug)]
 pub enum CliError {
@@ -15,6 +18,9 @@ pub enum CliError {
     Usage(String),
     /// Writing the output failed.
     Io(io::Error),
+    /// A check reported a failure; its report (already printed) says which, so nothing more
+    /// is printed.
+    ChecksFailed,
 }
 
 impl CliError {
@@ -37,6 +43,7 @@ impl CliError {
                 eprintln!("error: cannot write output: {e}");
                 ExitCode::FAILURE
             }
+            CliError::ChecksFailed => ExitCode::from(EXIT_CHECKS_FAILED),
         }
     }
 }
@@ -79,7 +86,7 @@ mod tests {
     fn usage_errors_are_one_line() {
         match CliError::usage("a\nb") {
             CliError::Usage(m) => assert_eq!(m, "a b"),
-            CliError::Io(_) => unreachable!(),
+            other => panic!("{other:?}"),
         }
     }
 }

@@ -68,6 +68,33 @@ impl Scene {
         .build(&root)
     }
 
+    /// Build a scene from Mitsuba 3 XML text (for scenes made by a program); `label` names it
+    /// in error locations, and files and `<include>`s resolve against `base_dir`.
+    pub fn from_xml_str(
+        text: &str,
+        label: &str,
+        base_dir: &Path,
+        overrides: &[(String, String)],
+    ) -> Result<Scene> {
+        let root = crate::xml::parse_scene_str(text, label, base_dir, overrides)?;
+        Builder {
+            base: base_dir.to_path_buf(),
+            ids: HashMap::new(),
+            bsdf_ids: HashMap::new(),
+            texture_ids: HashMap::new(),
+        }
+        .build(&root)
+    }
+
+    /// Add a light that is not part of the XML (e.g. an environment map made in memory),
+    /// registering it as infinitely distant when it is.
+    pub fn add_light(&mut self, emitter: Emitter) {
+        if emitter.is_infinite() {
+            self.infinite_lights.push(self.lights.len() as u32);
+        }
+        self.lights.push(Light::Other(emitter));
+    }
+
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<crate::core::Hit> {
         self.accel.intersect(ray)
@@ -754,4 +781,37 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
 
 fn bsdf_err(e: specula_bsdf::BuildError) -> SceneError {
     SceneError::new(None, e.to_string())
+}
+
+#[cfg(test)]
+mod from_xml_str_tests {
+    use super::*;
+
+    #[test]
+    fn scene_from_text_and_added_lights() {
+        let text = r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
+    </sensor>
+    <shape type="sphere"><bsdf type="conductor"/></shape>
+</scene>"#;
+        let mut s = Scene::from_xml_str(text, "<test>", Path::new("."), &[]).unwrap();
+        assert_eq!((s.film.width, s.film.height), (8, 6));
+        assert_eq!(s.bsdfs.len(), 1);
+        assert!(s.lights.is_empty() && s.infinite_lights.is_empty());
+        s.add_light(Emitter::point(Vec3::ONE, Rgb::splat(1.0)));
+        s.add_light(Emitter::constant(Rgb::splat(0.5)));
+        assert_eq!(s.lights.len(), 2);
+        assert_eq!(s.infinite_lights, vec![1]);
+        let e = Scene::from_xml_str(
+            "<scene version=\"3.0.0\">\n<shape type=\"cone\"/></scene>",
+            "<test>",
+            Path::new("."),
+            &[],
+        )
+        .err()
+        .unwrap();
+        assert!(e.to_string().contains("<test>:2:"), "{e}");
+    }
 }

@@ -114,6 +114,11 @@ fn erfc64(x: f64) -> f64 {
     1.0 - crate::math::erf64(x)
 }
 
+/// P(Z ≥ z) for a standard normal variable (accurate in the far tail too).
+pub fn normal_sf(z: f64) -> f64 {
+    0.5 * crate::math::erfc64(z / std::f64::consts::SQRT_2)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -135,6 +140,22 @@ mod tests {
         // large dof: mean k, sd sqrt(2k)
         let p = chi2_sf(5000.0, 5000.0);
         assert!(p > 0.49 && p < 0.51, "{p}");
+    }
+    #[test]
+    fn normal_tail() {
+        // erfc64 is accurate to ~1.2e-7 relative, in the tail too
+        let check = |z: f64, want: f64| {
+            let got = normal_sf(z);
+            assert!(
+                ((got - want) / want).abs() < 2e-7,
+                "P(Z ≥ {z}) = {got}, not {want}"
+            );
+        };
+        check(0.0, 0.5);
+        check(1.959_963_985, 0.025);
+        check(-2.326_347_874, 0.99);
+        // far tail: 1 − Φ(8), which 1 − erf would lose entirely
+        check(8.0, 6.220_960_574_271_8e-16);
     }
     #[test]
     fn sidak_is_exact() {

@@ -391,15 +391,7 @@ impl Merl {
             for j in 0..RES_THETA_D {
                 let td = theta_d_centre(j);
                 for k in 0..RES_PHI_D {
-                    let v = f(th, td, phi_d_centre(k));
-                    table[table_index(i, j, k)] = std::array::from_fn(|c| {
-                        let x = v[c] as f64;
-                        if x.is_finite() && x >= 0.0 {
-                            x / SCALE[c]
-                        } else {
-                            -1.0
-                        }
-                    });
+                    table[table_index(i, j, k)] = stored(f(th, td, phi_d_centre(k)));
                 }
             }
         }
@@ -420,6 +412,42 @@ impl Merl {
             bsdf.eval(&ctx, &sp, to_vec3(wi), to_vec3(wo))
         })
         .with_name("<measured>")
+    }
+
+    /// [`Merl::measure`] (the same table, bit for bit) with the θh rows shared among the
+    /// available cores, calling `progress(rows done, rows in all)` from the worker threads as
+    /// each of the 90 rows is finished.
+    pub fn measure_with_progress<B: BsdfModel + Sync + ?Sized>(
+        bsdf: &B,
+        progress: impl Fn(usize, usize) + Sync,
+    ) -> Merl {
+        let ctx = BsdfContext::RADIANCE;
+        let sp = ShadingPoint::default();
+        let mut table = vec![[0.0f64; 3]; ENTRIES];
+        let rows = std::sync::Mutex::new(table.chunks_mut(RES_THETA_D * RES_PHI_D).enumerate());
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+        std::thread::scope(|s| {
+            for _ in 0..threads.min(RES_THETA_H) {
+                s.spawn(|| loop {
+                    let next = rows.lock().unwrap_or_else(|e| e.into_inner()).next();
+                    let Some((i, row)) = next else { break };
+                    for j in 0..RES_THETA_D {
+                        for k in 0..RES_PHI_D {
+                            let (wi, wo) = bin_centre_dirs(i, j, k);
+                            row[k + RES_PHI_D * j] = if wi[2] <= 0.0 || wo[2] <= 0.0 {
+                                [-1.0; 3]
+                            } else {
+                                stored(bsdf.eval(&ctx, &sp, to_vec3(wi), to_vec3(wo)))
+                            };
+                        }
+                    }
+                    let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                    progress(n, RES_THETA_H);
+                });
+            }
+        });
+        Self::from_table("<measured>".into(), table)
     }
 
     fn from_table(name: String, table: Vec<[f64; 3]>) -> Merl {
@@ -580,6 +608,20 @@ impl Merl {
         let pdf_h = self.data.sampler.pdf_h(wi, h);
         pdf_h / (4.0 * cos_ih)
     }
+}
+
+/// A BRDF value as stored: divided by [`SCALE`]; −1 (not measured) for a negative or
+/// non-finite channel.
+#[inline]
+fn stored(v: Spectrum) -> [f64; 3] {
+    std::array::from_fn(|c| {
+        let x = v[c] as f64;
+        if x.is_finite() && x >= 0.0 {
+            x / SCALE[c]
+        } else {
+            -1.0
+        }
+    })
 }
 
 #[inline]

@@ -1,2 +1,3 @@
+pub mod fit;
 pub mod merl;
 pub mod rgl;

@@ -1,0 +1,300 @@
+//! `specula brdf check MATERIAL`: run the property checks of `specula_bsdf::check::suite` on
+//! one material and print a verdict table; the exit status is 1 when a check fails.
+
+use std::io::Write;
+use std::time::Instant;
+
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use specula_bsdf::check::suite::{self, Reciprocity, SuiteConfig, Verdict};
+use specula_bsdf::models::{Blend, TwoSided};
+use specula_bsdf::{Bsdf, BsdfModel};
+
+use crate::output::CliError;
+
+#[derive(Debug, Args)]
+pub struct CheckArgs {
+    /// Material: a spec such as "roughconductor material=Cu alpha=0.2" (quoted, or as separate
+    /// words), an XML snippet '<bsdf type=…>…</bsdf>', a MERL .binary or RGL .bsdf file, or
+    /// scene.xml#id
+    #[arg(required = true, num_args = 1.., value_name = "MATERIAL")]
+    pub material: Vec<String>,
+    /// Samples per statistical test (χ² or lobe selection, and albedo, at each incidence
+    /// angle); the weight-consistency and reciprocity checks use a tenth of it
+    #[arg(long, value_name = "N", default_value_t = 200_000)]
+    pub samples: usize,
+    /// Random seed (the report is a deterministic function of material, seed and samples)
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Incidence angles θi in degrees, comma separated (beyond 90° below the surface).
+    /// Default: 0,30,60,85, plus 180,150,120,95 for materials that scatter light from below
+    #[arg(
+        long,
+        value_name = "DEG,…",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    pub angles: Option<Vec<f32>>,
+    /// Family-wise significance of the statistical tests (Šidák-corrected per test)
+    #[arg(long, value_name = "P", default_value_t = 0.01)]
+    pub alpha: f64,
+    /// Worker threads (default: all cores)
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// No progress bar
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// A copy of `b` in which every MERL table, nested ones included, uses interpolated lookup;
+/// `None` when `b` has no table with nearest-bin lookup. Swapping wi and wo leaves a MERL
+/// table's coordinates unchanged (φd is folded by reciprocity), so the table is reciprocal by
+/// construction, but nearest-bin lookup puts the two orders in neighbouring bins where float
+/// rounding crosses a bin edge: the continuous, interpolated lookup tests the data instead.
+fn interpolated_merl(b: &Bsdf) -> Option<Bsdf> {
+    match b {
+        Bsdf::Merl(m) if !m.interpolate => {
+            let mut m = m.clone();
+            m.interpolate = true;
+            Some(Bsdf::Merl(m))
+        }
+        Bsdf::TwoSided(t) => {
+            let (front, back) = (interpolated_merl(&t.front), interpolated_merl(&t.back));
+            (front.is_some() || back.is_some()).then(|| {
+                Bsdf::TwoSided(Box::new(TwoSided {
+                    front: front.unwrap_or_else(|| t.front.clone()),
+                    back: back.unwrap_or_else(|| t.back.clone()),
+                }))
+            })
+        }
+        Bsdf::Blend(bl) => {
+            let parts = [
+                interpolated_merl(&bl.bsdfs[0]),
+                interpolated_merl(&bl.bsdfs[1]),
+            ];
+            parts.iter().any(Option::is_some).then(|| {
+                let [a, b] = parts;
+                Bsdf::Blend(Box::new(Blend {
+                    weight: bl.weight.clone(),
+                    bsdfs: [
+                        a.unwrap_or_else(|| bl.bsdfs[0].clone()),
+                        b.unwrap_or_else(|| bl.bsdfs[1].clone()),
+                    ],
+                }))
+            })
+        }
+        _ => None,
+    }
+}
+
+/// Whether `b` contains an RGL tensor (`measured`), nested ones included.
+fn contains_rgl(b: &Bsdf) -> bool {
+    match b {
+        Bsdf::Measured(_) => true,
+        Bsdf::TwoSided(t) => contains_rgl(&t.front) || contains_rgl(&t.back),
+        Bsdf::Blend(bl) => bl.bsdfs.iter().any(contains_rgl),
+        _ => false,
+    }
+}
+
+pub fn run(args: &CheckArgs, out: &mut dyn Write) -> Result<(), CliError> {
+    if args.samples < 1000 {
+        return Err(CliError::usage(format!(
+            "--samples must be at least 1000, got {}",
+            args.samples
+        )));
+    }
+    if !(args.alpha > 0.0 && args.alpha < 1.0) {
+        return Err(CliError::usage(format!(
+            "--alpha must lie strictly between 0 and 1, got {}",
+            args.alpha
+        )));
+    }
+    if let Some(a) = &args.angles {
+        if let Some(bad) = a
+            .iter()
+            .find(|t| !(t.is_finite() && (0.0..=180.0).contains(*t)))
+        {
+            return Err(CliError::usage(format!(
+                "--angles must lie in [0, 180] degrees, got {bad}"
+            )));
+        }
+        if a.is_empty() {
+            return Err(CliError::usage("--angles: give at least one angle"));
+        }
+    }
+    let material = crate::material::load_material(&args.material)?;
+    let bsdf = &material.bsdf;
+
+    // Measured data: reciprocity as the data allow (see the README's "Checking a material").
+    let interpolated = interpolated_merl(bsdf);
+    let reciprocity = if contains_rgl(bsdf) {
+        Reciprocity::Skip(
+            "RGL tensors tabulate f per incidence direction (Dupuy & Jakob 2018), \
+             which is not reciprocal by construction"
+                .into(),
+        )
+    } else if let Some(m) = &interpolated {
+        Reciprocity::Substitute {
+            model: m,
+            note: "MERL: on the interpolated lookup (nearest-bin jumps at bin edges)".into(),
+        }
+    } else {
+        Reciprocity::Test
+    };
+    let cfg = SuiteConfig {
+        samples: args.samples,
+        seed: args.seed,
+        family_alpha: args.alpha,
+        angles: args.angles.clone(),
+        threads: args.threads,
+        reciprocity,
+    };
+
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(0)
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} tests")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let start = Instant::now();
+    let report = suite::run_suite(bsdf, &cfg, &|done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    });
+    bar.finish_and_clear();
+    let secs = start.elapsed().as_secs_f64();
+
+    let angles = report
+        .angles
+        .iter()
+        .map(|t| format!("{t}°"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    writeln!(out, "{:<13}{}", "material", material.label)?;
+    writeln!(
+        out,
+        "{:<13}{} ({})",
+        "plugin",
+        bsdf.plugin_name(),
+        bsdf.flags()
+    )?;
+    writeln!(
+        out,
+        "{:<13}θi = {angles} (φi = {:.1}°)",
+        "incidence",
+        suite::PHI_I.to_degrees()
+    )?;
+    writeln!(
+        out,
+        "{:<13}{} per statistical test, seed {}",
+        "samples", report.samples, report.seed
+    )?;
+    writeln!(
+        out,
+        "{:<13}family-wise {} over {} statistical tests ({} sampling, {} energy), \
+         Šidák-corrected: α = {:.2e} per test",
+        "significance",
+        report.family_alpha,
+        report.family_size,
+        report.angles.len(),
+        3 * report.angles.len(),
+        report.per_test_alpha
+    )?;
+    writeln!(out)?;
+    let w = report
+        .outcomes
+        .iter()
+        .map(|o| o.name.len())
+        .max()
+        .unwrap_or(0)
+        .max(5);
+    writeln!(out, "{:<w$}  {:<7}  figures", "check", "verdict")?;
+    for o in &report.outcomes {
+        writeln!(
+            out,
+            "{:<w$}  {:<7}  {}",
+            o.name,
+            o.verdict.to_string(),
+            o.summary
+        )?;
+        for d in &o.details {
+            writeln!(out, "{:<w$}  {:<7}    {d}", "", "")?;
+        }
+    }
+    writeln!(out)?;
+    let failed: Vec<&str> = report
+        .outcomes
+        .iter()
+        .filter(|o| o.verdict == Verdict::Fail)
+        .map(|o| o.name)
+        .collect();
+    let skipped = report
+        .outcomes
+        .iter()
+        .filter(|o| o.verdict == Verdict::Skip)
+        .count();
+    let skip_note = if skipped > 0 {
+        format!(", {skipped} skipped")
+    } else {
+        String::new()
+    };
+    if failed.is_empty() {
+        writeln!(
+            out,
+            "result: PASS ({} checks passed{skip_note}) in {secs:.1} s",
+            report.outcomes.len() - skipped
+        )?;
+        Ok(())
+    } else {
+        writeln!(
+            out,
+            "result: FAIL ({} of {} checks failed: {}{skip_note}) in {secs:.1} s",
+            failed.len(),
+            report.outcomes.len(),
+            failed.join(", ")
+        )?;
+        Err(CliError::ChecksFailed)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use specula_bsdf::measured::merl::Merl;
+    use specula_bsdf::{parse_spec, Spectrum};
+
+    fn merl_interpolates(b: &Bsdf) -> Vec<bool> {
+        match b {
+            Bsdf::Merl(m) => vec![m.interpolate],
+            Bsdf::TwoSided(t) => [merl_interpolates(&t.front), merl_interpolates(&t.back)].concat(),
+            Bsdf::Blend(bl) => bl.bsdfs.iter().flat_map(merl_interpolates).collect(),
+            _ => vec![],
+        }
+    }
+
+    #[test]
+    fn nested_merl_tables_get_interpolated_lookup() {
+        let table = Bsdf::Merl(Merl::from_fn(|_, _, _| Spectrum::splat(0.1)));
+        let diffuse = parse_spec("diffuse").unwrap();
+        assert!(interpolated_merl(&diffuse).is_none());
+        let top = interpolated_merl(&table).unwrap();
+        assert_eq!(merl_interpolates(&top), [true]);
+        let two = Bsdf::TwoSided(Box::new(TwoSided {
+            front: table.clone(),
+            back: diffuse.clone(),
+        }));
+        assert_eq!(merl_interpolates(&two), [false]);
+        assert_eq!(merl_interpolates(&interpolated_merl(&two).unwrap()), [true]);
+        let blend = Bsdf::Blend(Box::new(Blend {
+            weight: 0.5.into(),
+            bsdfs: [diffuse.clone(), two],
+        }));
+        let b = interpolated_merl(&blend).unwrap();
+        assert_eq!(merl_interpolates(&b), [true]);
+        assert!(!contains_rgl(&b) && !contains_rgl(&diffuse));
+    }
+}

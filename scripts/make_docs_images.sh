@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Regenerates every picture in README.md (docs/*.png) with the current code:
+#
+#     bash scripts/make_docs_images.sh
+#
+# The scene renders and the MERL slice read ../shared (the conformance scenes and data).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo build --release -q -p specula-cli
+S=target/release/specula
+SHARED=../shared
+mkdir -p docs
+
+for scene in cbox meshes veach_mis; do
+    $S render "$SHARED/scenes/$scene.xml" -D spp=256 --quiet -o "docs/$scene.png"
+done
+
+$S brdf plot "roughconductor material=Cu alpha=0.2 distribution=ggx" -o docs/lobe.png
+$S fresnel plot --ior 1.5 -o docs/fresnel.png
+$S fresnel plot --material Au -o docs/fresnel_au.png
+$S brdf slice "$SHARED/data/merl/mitsuba_rough_plastic.binary" -o docs/slice.png
+$S brdf albedo "roughconductor material=none alpha=0.8 distribution=ggx" -o docs/albedo.png
+$S gallery --quiet -o docs/gallery.png "$SHARED/data/merl/mitsuba_rough_copper.binary" \
+    "$SHARED/data/rgl/acrylic_felt_green_rgb.bsdf"
+echo "docs/*.png regenerated"

@@ -3,12 +3,14 @@
 //! Run with `cargo bench -p specula-bsdf` (add a filter such as `-- eval/` or
 //! `-- roughconductor` to run a subset). Each benchmark cycles through 1024 pre-generated
 //! queries (wi, wo, u1, u2), so the random number generator is not measured; group names are
-//! `eval/<model>` and `sample/<model>`.
+//! `eval/<model>` and `sample/<model>`; `merl` and `merl_interpolated` are a MERL table
+//! (a rough copper tabulated in memory) with nearest-bin and multilinear lookups.
 
 use std::time::Duration;
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use glam::{Vec2, Vec3};
+use specula_bsdf::measured::merl::Merl;
 use specula_bsdf::rng::Pcg32;
 use specula_bsdf::warp::{square_to_cosine_hemisphere, square_to_uniform_sphere};
 use specula_bsdf::{parse_spec, Bsdf, BsdfContext, BsdfModel, ShadingPoint};
@@ -118,13 +120,25 @@ fn queries(domain: Domain) -> Vec<Query> {
 }
 
 fn bench_models(c: &mut Criterion) {
-    let models: Vec<(&str, Bsdf, Vec<Query>)> = MODELS
+    let mut models: Vec<(&str, Bsdf, Vec<Query>)> = MODELS
         .iter()
         .map(|(name, spec, domain)| {
             let bsdf = parse_spec(spec).unwrap_or_else(|e| panic!("{name}: {e}"));
             (*name, bsdf, queries(*domain))
         })
         .collect();
+    // MERL tables: a rough copper tabulated in memory (the same 90×90×180 layout and cost as a
+    // file from the database), nearest-bin and interpolated lookups
+    let copper = parse_spec("roughconductor material=Cu distribution=ggx alpha=0.2").unwrap();
+    let merl = Merl::measure(&copper);
+    let mut interpolated = merl.clone();
+    interpolated.interpolate = true;
+    models.push(("merl", Bsdf::Merl(merl), queries(Domain::Reflection)));
+    models.push((
+        "merl_interpolated",
+        Bsdf::Merl(interpolated),
+        queries(Domain::Reflection),
+    ));
     let ctx = BsdfContext::RADIANCE;
     let sp = ShadingPoint::default();
 

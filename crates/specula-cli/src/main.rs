@@ -37,7 +37,8 @@ enum Command {
     /// Render a labelled contact sheet (PNG) of material previews: every built-in preset and
     /// any materials given, each on a sphere on a checkerboard floor under a procedural sky.
     Gallery(gallery::GalleryArgs),
-    /// Work with a single material given as a one-line spec.
+    /// Work with one material: a spec ("roughconductor material=Cu alpha=0.2"), an XML snippet,
+    /// a MERL .binary or RGL .bsdf file, or scene.xml#id.
     Brdf {
         #[command(subcommand)]
         command: brdf::BrdfCommand,

@@ -1,11 +1,25 @@
-//! Ray intersection: one compressed wide BVH (obvhs' CWBVH, built with PLOC + reinsertion)
-//! over every triangle, sphere and disk of the scene.
+//! Ray intersection: one 8-wide BVH over every triangle, sphere and disk of the scene.
+//!
+//! **Structure.** The binary tree is built by obvhs (PLOC, then a thorough reinsertion pass)
+//! and collapsed into nodes of up to 8 children (greedily opening the child with the largest
+//! surface area). Each node stores its children's boxes as arrays of f32 (one array per
+//! plane), so one ray is tested against all 8 boxes at once; subtrees of at most 4 triangles
+//! become leaves holding one [`TriPacket`] (the triangles' vertices, one array per coordinate),
+//! tested 4 at a time. Nodes and packets are laid out depth-first. Closest-hit queries visit
+//! the children nearest first and skip stacked subtrees that lie beyond the closest hit so far;
+//! occlusion queries stop at the first hit.
+//!
+//! **Instruction sets.** The box and triangle tests have a portable scalar implementation and
+//! SSE2 (always present on x86-64) and AVX2 (picked at run time when the CPU has it) ones; all
+//! perform the same IEEE operations in the same order (no fused multiply-add), so every
+//! implementation returns bit-identical results ([`Bvh::set_isa`] selects one, for tests and
+//! benchmarks).
 //!
 //! **Ownership.** [`Bvh::build`] copies what intersection needs (triangle vertices, sphere
-//! centres and radii, disk transforms) into its own primitive array, laid out in BVH leaf
-//! order; the `Geometry` slice may be dropped or moved afterwards. A [`Hit`] names the shape by
-//! its index in that slice (`shape`) and the primitive within it (`prim`), so the caller keeps
-//! the shapes to compute [`crate::geometry::Geometry::surface`].
+//! centres and radii, disk transforms) into its own arrays; the `Geometry` slice may be
+//! dropped or moved afterwards. A [`Hit`] names the shape by its index in that slice (`shape`)
+//! and the primitive within it (`prim`), so the caller keeps the shapes to compute
+//! [`crate::geometry::Geometry::surface`].
 //!
 //! **Epsilons.** Intersections are reported for t in the open interval (0, `t_max`), with no
 //! epsilon: the caller must move ray origins off the surface they leave. Use
@@ -16,19 +30,18 @@
 //!
 //! **Robustness.** Triangles use the watertight test of Woop, Benthin and Wald (JCGT 2013):
 //! rays through an edge or vertex shared by several triangles hit one of them. Primitive
-//! boxes are padded slightly before the build, and the traversal works around obvhs' node test
-//! ignoring boxes closer than t = 1e-4 (it traverses from an origin moved back along the ray),
-//! so nothing near the origin is culled. Traversal uses a fixed 32-entry stack (no heap
-//! allocation per ray).
+//! boxes are padded slightly before the build and the box test widens its exit distance by a
+//! few ulps, so rounding never culls a box that holds a hit; boxes are entered from t = 0.
+//! Traversal keeps its stack in a fixed array (no heap allocation per ray; a stack deeper than
+//! the array, which only a pathologically deep tree could need, spills to the heap).
 
 use crate::core::{Hit, Ray};
 use crate::geometry::Geometry;
-use glam::{DVec3, Mat3, UVec2, Vec3, Vec3A};
+use glam::{DVec3, Mat3, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
-use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
-use obvhs::cwbvh::{firstbithigh, CwBvh};
 use obvhs::BvhBuildParams;
+use std::mem::MaybeUninit;
 
 /// Mitsuba's `math::RayEpsilon<float>`: 1500 · 2⁻²⁴ ≈ 8.94e-5.
 pub const RAY_EPSILON: f32 = 1500.0 / 16_777_216.0;
@@ -98,29 +111,158 @@ struct Prim {
     index: u32,
 }
 
-/// A CWBVH over all primitives of a list of shapes. See the module docs for ownership and
-/// epsilon conventions.
-#[derive(Clone, Debug, Default)]
-pub struct Bvh {
-    bvh: CwBvh,
-    /// Triangle vertices per leaf slot (slot k of the CWBVH), zero for analytic slots: the
-    /// only primitive data traversal touches for meshes, kept compact for the cache.
-    tris: Vec<[Vec3; 3]>,
-    /// Per slot: `TRIANGLE`, or the index of the analytic shape in `analytic`.
-    kind: Vec<u32>,
-    /// Per slot: (shape, primitive index), read only for the closest hit.
-    ids: Vec<(u32, u32)>,
-    analytic: Vec<PrimShape>,
+/// Children per node.
+const WIDTH: usize = 8;
+/// Triangles per packet.
+const LANES: usize = 4;
+/// Subtrees with at most this many triangles (and nothing else) become one leaf.
+const LEAF_TRIS: u32 = 4;
+
+// A child reference (`u32`): a node index; or `LEAF | (packets − 1) << COUNT_SHIFT | first
+// packet`; or `LEAF | ANALYTIC | index` of an analytic shape.
+const LEAF: u32 = 1 << 31;
+const ANALYTIC: u32 = 1 << 30;
+const COUNT_SHIFT: u32 = 27;
+const INDEX_MASK: u32 = (1 << COUNT_SHIFT) - 1;
+const MAX_LEAF_PACKETS: usize = 8;
+
+/// A node: the boxes of up to 8 children, one array per plane (`b[2·axis]` the lower and
+/// `b[2·axis + 1]` the upper bounds), and their references. Unused slots have empty boxes
+/// (lower +∞, upper −∞), which no ray hits.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Node {
+    b: [[f32; WIDTH]; 6],
+    child: [u32; WIDTH],
 }
 
-const TRIANGLE: u32 = u32::MAX;
+impl Node {
+    const EMPTY: Node = Node {
+        b: [
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+        ],
+        child: [0; WIDTH],
+    };
+}
 
-/// How far (in units of t) the traversal origin is moved back along the ray, so that obvhs'
-/// node test, which ignores boxes with exit distance below 1e-4, never culls a box that holds
-/// a hit at t > 0.
-const TRAVERSAL_SHIFT: f32 = 2e-4;
-/// Bound on |1/d| in box tests (instead of obvhs' 1/f32::EPSILON for tiny components).
+/// Up to 4 triangles: `v[vertex][axis][lane]`; unused lanes are NaN (never hit).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+struct TriPacket {
+    v: [[[f32; LANES]; 3]; 3],
+}
+
+/// Which implementation of the box and triangle tests a [`Bvh`] uses. All give bit-identical
+/// results.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Isa {
+    /// Portable scalar code.
+    Scalar,
+    /// SSE2: 4-wide triangle tests, 8 boxes as two halves (x86-64 only).
+    Sse2,
+    /// AVX2: 8 boxes at once (x86-64 CPUs that have it).
+    Avx2,
+}
+
+impl Isa {
+    /// The fastest implementation this CPU supports.
+    pub fn detect() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                return Isa::Avx2;
+            }
+            return Isa::Sse2;
+        }
+        #[allow(unreachable_code)]
+        Isa::Scalar
+    }
+
+    /// Every implementation this CPU supports, slowest first.
+    pub fn available() -> Vec<Isa> {
+        [Isa::Scalar, Isa::Sse2, Isa::Avx2]
+            .into_iter()
+            .filter(|i| i.supported())
+            .collect()
+    }
+
+    /// Whether this CPU can run it.
+    pub fn supported(self) -> bool {
+        match self {
+            Isa::Scalar => true,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Sse2 => true,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            #[allow(unreachable_patterns)]
+            _ => false,
+        }
+    }
+}
+
+/// An 8-wide BVH over all primitives of a list of shapes. See the module docs for the layout,
+/// ownership and epsilon conventions.
+#[derive(Clone, Debug)]
+pub struct Bvh {
+    /// Depth-first; the root is node 0 (none when the scene is empty).
+    nodes: Vec<Node>,
+    packets: Vec<TriPacket>,
+    /// Per packet lane: (shape, primitive index), read only for the closest hit.
+    packet_ids: Vec<[(u32, u32); LANES]>,
+    analytic: Vec<PrimShape>,
+    analytic_ids: Vec<(u32, u32)>,
+    primitives: usize,
+    isa: Isa,
+}
+
+impl Default for Bvh {
+    fn default() -> Self {
+        Bvh {
+            nodes: Vec::new(),
+            packets: Vec::new(),
+            packet_ids: Vec::new(),
+            analytic: Vec::new(),
+            analytic_ids: Vec::new(),
+            primitives: 0,
+            isa: Isa::detect(),
+        }
+    }
+}
+
+/// Bound on |1/d| in box tests (a zero component gets +MAX_INV_DIR).
 const MAX_INV_DIR: f32 = 1e18;
+/// Box exit distances are scaled by this (a few ulps more than 1), so that rounding in the
+/// slab test never culls a box the ray touches (Ize, *Robust BVH Ray Traversal*, JCGT 2013).
+const EXIT_SCALE: f32 = 1.0 + 4.0 * f32::EPSILON;
+
+/// A node of the binary build tree (one primitive per leaf).
+struct BNode {
+    lo: Vec3,
+    hi: Vec3,
+    /// Children (inner nodes), or `[prim, NO_CHILD]` for a leaf.
+    kids: [u32; 2],
+    /// Primitives in the subtree.
+    count: u32,
+    /// Whether all of them are triangles.
+    tris_only: bool,
+}
+
+const NO_CHILD: u32 = u32::MAX;
+
+impl BNode {
+    fn half_area(&self) -> f32 {
+        let e = (self.hi - self.lo).max(Vec3::ZERO);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+    fn is_leaf(&self) -> bool {
+        self.kids[1] == NO_CHILD
+    }
+}
 
 impl Bvh {
     /// Builds the BVH over every primitive of `geoms` (copying their data).
@@ -173,14 +315,18 @@ impl Bvh {
                 continue;
             }
             // Pad by a few ulps of the coordinates (and of the extent) so that rounding in the
-            // quantised box tests never rejects a ray that hits the primitive.
+            // box tests never rejects a ray that hits the primitive.
             let scale = lo.abs().max(hi.abs()).max_element();
             let pad = Vec3::splat(scale * 4e-7 + (hi - lo).max_element() * 1e-6 + 1e-30);
             aabbs.push(Aabb::new(Vec3A::from(lo - pad), Vec3A::from(hi + pad)));
             kept.push(p);
         }
+        let mut out = Bvh {
+            primitives: kept.len(),
+            ..Bvh::default()
+        };
         if kept.is_empty() {
-            return Bvh::default();
+            return out;
         }
         let config = BvhBuildParams::slow_build();
         let indices = (0..kept.len() as u32).collect();
@@ -192,113 +338,214 @@ impl Bvh {
         );
         // a thorough reinsertion pass: ~8 % faster traversal on meshes.xml than the medium preset
         ReinsertionOptimizer::run(&mut bvh2, config.reinsertion_batch_ratio, None);
-        let bvh = bvh2_to_cwbvh(&bvh2, 3, true, false);
-        let n = bvh.primitive_indices.len();
-        let mut out = Bvh {
-            tris: Vec::with_capacity(n),
-            kind: Vec::with_capacity(n),
-            ids: Vec::with_capacity(n),
-            analytic: Vec::new(),
-            bvh: CwBvh::default(),
-        };
-        for &i in &bvh.primitive_indices {
-            let p = kept[i as usize];
-            out.ids.push((p.geom, p.index));
-            match p.shape {
-                PrimShape::Triangle(v) => {
-                    out.tris.push(v);
-                    out.kind.push(TRIANGLE);
-                }
-                other => {
-                    out.tris.push([Vec3::ZERO; 3]);
-                    out.kind.push(out.analytic.len() as u32);
-                    out.analytic.push(other);
-                }
-            }
-        }
-        out.bvh = bvh;
+        let tree = binary_tree(&bvh2, &aabbs, &kept);
+        out.collapse(&tree, &kept);
         out
     }
 
     /// Number of primitives (triangles, spheres, disks) in the BVH.
     pub fn primitive_count(&self) -> usize {
-        self.kind.len()
+        self.primitives
     }
 
-    /// Walks the BVH, calling `visit(prim, t_max)` for every primitive whose box the ray
-    /// enters before `*t_max`. `visit` may lower `*t_max`; returning `true` stops the walk.
-    #[inline(always)]
-    fn traverse<F: FnMut(usize, &mut f32) -> bool>(
-        &self,
-        ray: &Ray,
-        t_max: &mut f32,
-        mut visit: F,
-    ) {
-        if self.bvh.nodes.is_empty() {
-            return;
-        }
-        let d = ray.d;
-        // +0 for zero components, so the octant (picked by `d < 0`) matches the inverse.
-        let dir = Vec3A::new(d.x + 0.0, d.y + 0.0, d.z + 0.0);
-        let inv = |c: f32| {
-            if c == 0.0 {
-                MAX_INV_DIR
-            } else if c < 0.0 {
-                (1.0 / c).max(-MAX_INV_DIR)
-            } else {
-                (1.0 / c).min(MAX_INV_DIR)
-            }
-        };
-        let shifted_tmax = |t: f32| t * (1.0 + 4.0 * f32::EPSILON) + TRAVERSAL_SHIFT;
-        let mut tray = obvhs::ray::Ray {
-            origin: Vec3A::from(ray.o) - dir * TRAVERSAL_SHIFT,
-            direction: dir,
-            inv_direction: Vec3A::new(inv(dir.x), inv(dir.y), inv(dir.z)),
-            tmin: 0.0,
-            tmax: shifted_tmax(*t_max),
-        };
-        let mut state = self.bvh.new_traversal(dir);
-        loop {
-            while state.primitive_group.y != 0 {
-                let local = firstbithigh(state.primitive_group.y);
-                state.primitive_group.y &= !(1u32 << local);
-                let slot = (state.primitive_group.x + local) as usize;
-                if visit(slot, t_max) {
-                    return;
-                }
-                tray.tmax = shifted_tmax(*t_max);
-            }
-            state.primitive_group = UVec2::ZERO;
+    /// The implementation of the box and triangle tests in use.
+    pub fn isa(&self) -> Isa {
+        self.isa
+    }
 
-            if state.current_group.y & 0xff00_0000 != 0 {
-                let hits_imask = state.current_group.y;
-                let child_index_offset = firstbithigh(hits_imask);
-                let child_index_base = state.current_group.x;
-                state.current_group.y &= !(1u32 << child_index_offset);
-                if state.current_group.y & 0xff00_0000 != 0 {
-                    state.stack.push(state.current_group);
-                }
-                let slot_index = (child_index_offset - 24) ^ (state.oct_inv4 & 0xff);
-                let relative_index = (hits_imask & !(0xffff_ffffu32 << slot_index)).count_ones();
-                let child_node_index = child_index_base + relative_index;
-                let node = &self.bvh.nodes[child_node_index as usize];
-                let hitmask = node.intersect_ray(&tray, state.oct_inv4);
-                state.current_group.x = node.child_base_idx;
-                state.primitive_group.x = node.primitive_base_idx;
-                state.current_group.y = (hitmask & 0xff00_0000) | (node.imask as u32);
-                state.primitive_group.y = hitmask & 0x00ff_ffff;
-            } else {
-                state.current_group = UVec2::ZERO;
-            }
+    /// Selects the implementation of the box and triangle tests (all give identical results).
+    /// Panics if this CPU does not support it.
+    pub fn set_isa(&mut self, isa: Isa) {
+        assert!(isa.supported(), "{isa:?} is not supported by this CPU");
+        self.isa = isa;
+    }
 
-            if state.primitive_group.y == 0 && (state.current_group.y & 0xff00_0000) == 0 {
-                if state.stack.is_empty() {
-                    return;
-                }
-                state.current_group = state.stack.pop_fast();
+    /// Turns the binary tree into 8-wide nodes and packets, depth-first.
+    fn collapse(&mut self, tree: &[BNode], prims: &[Prim]) {
+        let leaf_like = |b: &BNode| b.is_leaf() || (b.tris_only && b.count <= LEAF_TRIS);
+        // (binary node, parent node, slot): inner nodes still to emit
+        let mut todo: Vec<(u32, u32, usize)> = vec![(0, u32::MAX, 0)];
+        let mut leaf_prims: Vec<u32> = Vec::new();
+        let mut walk: Vec<u32> = Vec::new();
+        while let Some((b, parent, slot)) = todo.pop() {
+            let index = self.nodes.len() as u32;
+            if parent != u32::MAX {
+                self.nodes[parent as usize].child[slot] = index;
             }
+            self.nodes.push(Node::EMPTY);
+            // children: open the largest-area inner child until there are 8
+            let mut kids: Vec<u32> = if leaf_like(&tree[b as usize]) {
+                vec![b]
+            } else {
+                tree[b as usize].kids.to_vec()
+            };
+            while kids.len() < WIDTH {
+                let best = kids
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &k)| !leaf_like(&tree[k as usize]))
+                    .max_by(|a, b| {
+                        let (aa, ba) = (
+                            tree[*a.1 as usize].half_area(),
+                            tree[*b.1 as usize].half_area(),
+                        );
+                        aa.total_cmp(&ba)
+                    })
+                    .map(|(i, _)| i);
+                let Some(i) = best else { break };
+                let k = kids[i] as usize;
+                kids[i] = tree[k].kids[0];
+                kids.insert(i + 1, tree[k].kids[1]);
+            }
+            let mut inner = Vec::new();
+            for (s, &k) in kids.iter().enumerate() {
+                let kn = &tree[k as usize];
+                let node = &mut self.nodes[index as usize];
+                for a in 0..3 {
+                    node.b[2 * a][s] = kn.lo[a];
+                    node.b[2 * a + 1][s] = kn.hi[a];
+                }
+                if !leaf_like(kn) {
+                    inner.push((k, index, s));
+                    continue;
+                }
+                // gather the leaf's primitives
+                leaf_prims.clear();
+                walk.clear();
+                walk.push(k);
+                while let Some(w) = walk.pop() {
+                    let wn = &tree[w as usize];
+                    if wn.is_leaf() {
+                        leaf_prims.push(wn.kids[0]);
+                    } else {
+                        walk.push(wn.kids[1]);
+                        walk.push(wn.kids[0]);
+                    }
+                }
+                let code = if let [p] = leaf_prims[..] {
+                    match prims[p as usize].shape {
+                        PrimShape::Triangle(_) => self.push_packets(&leaf_prims, prims),
+                        shape => {
+                            let code = LEAF | ANALYTIC | self.analytic.len() as u32;
+                            self.analytic.push(shape);
+                            let pr = &prims[p as usize];
+                            self.analytic_ids.push((pr.geom, pr.index));
+                            code
+                        }
+                    }
+                } else {
+                    self.push_packets(&leaf_prims, prims)
+                };
+                self.nodes[index as usize].child[s] = code;
+            }
+            // depth-first: the first child's subtree comes next
+            todo.extend(inner.into_iter().rev());
         }
     }
+
+    /// Packs triangles into consecutive packets; returns the leaf reference.
+    fn push_packets(&mut self, tris: &[u32], prims: &[Prim]) -> u32 {
+        let first = self.packets.len();
+        for chunk in tris.chunks(LANES) {
+            let mut p = TriPacket {
+                v: [[[f32::NAN; LANES]; 3]; 3],
+            };
+            let mut ids = [(u32::MAX, u32::MAX); LANES];
+            for (lane, &t) in chunk.iter().enumerate() {
+                let pr = &prims[t as usize];
+                let PrimShape::Triangle(v) = pr.shape else {
+                    unreachable!("packets hold triangles only")
+                };
+                for (vi, vert) in v.iter().enumerate() {
+                    for a in 0..3 {
+                        p.v[vi][a][lane] = vert[a];
+                    }
+                }
+                ids[lane] = (pr.geom, pr.index);
+            }
+            self.packets.push(p);
+            self.packet_ids.push(ids);
+        }
+        let n = self.packets.len() - first;
+        assert!((1..=MAX_LEAF_PACKETS).contains(&n) && first <= INDEX_MASK as usize);
+        LEAF | ((n as u32 - 1) << COUNT_SHIFT) | first as u32
+    }
+}
+
+/// obvhs' binary tree as [`BNode`]s with one primitive per leaf (a leaf of several primitives
+/// is split in halves), root first, with primitive counts filled in.
+fn binary_tree(bvh2: &obvhs::bvh2::Bvh2, aabbs: &[Aabb], prims: &[Prim]) -> Vec<BNode> {
+    let mut tree: Vec<BNode> = Vec::with_capacity(2 * prims.len());
+    let leaf = |p: u32| {
+        let bb = &aabbs[p as usize];
+        BNode {
+            lo: Vec3::from(bb.min),
+            hi: Vec3::from(bb.max),
+            kids: [p, NO_CHILD],
+            count: 1,
+            tris_only: matches!(prims[p as usize].shape, PrimShape::Triangle(_)),
+        }
+    };
+    enum Src<'a> {
+        Node(usize),
+        Prims(&'a [u32]),
+    }
+    // (source, parent, which child)
+    let mut todo: Vec<(Src, u32, usize)> = vec![(Src::Node(0), u32::MAX, 0)];
+    while let Some((src, parent, which)) = todo.pop() {
+        let index = tree.len() as u32;
+        match src {
+            Src::Node(n) => {
+                let node = &bvh2.nodes[n];
+                if node.is_leaf() {
+                    let first = node.first_index as usize;
+                    let ids = &bvh2.primitive_indices[first..first + node.prim_count as usize];
+                    todo.push((Src::Prims(ids), parent, which));
+                    continue;
+                }
+                tree.push(BNode {
+                    lo: Vec3::from(node.aabb.min),
+                    hi: Vec3::from(node.aabb.max),
+                    kids: [NO_CHILD, NO_CHILD],
+                    count: 0,
+                    tris_only: true,
+                });
+                let c = node.first_index as usize;
+                todo.push((Src::Node(c + 1), index, 1));
+                todo.push((Src::Node(c), index, 0));
+            }
+            Src::Prims([p]) => tree.push(leaf(*p)),
+            Src::Prims(ids) => {
+                let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+                for &p in ids {
+                    lo = lo.min(Vec3::from(aabbs[p as usize].min));
+                    hi = hi.max(Vec3::from(aabbs[p as usize].max));
+                }
+                tree.push(BNode {
+                    lo,
+                    hi,
+                    kids: [NO_CHILD, NO_CHILD],
+                    count: 0,
+                    tris_only: true,
+                });
+                let (a, b) = ids.split_at(ids.len() / 2);
+                todo.push((Src::Prims(b), index, 1));
+                todo.push((Src::Prims(a), index, 0));
+            }
+        }
+        if parent != u32::MAX {
+            tree[parent as usize].kids[which] = index;
+        }
+    }
+    // children come after their parents: sum up in reverse
+    for i in (0..tree.len()).rev() {
+        if !tree[i].is_leaf() {
+            let [a, b] = tree[i].kids.map(|k| k as usize);
+            tree[i].count = tree[a].count + tree[b].count;
+            tree[i].tris_only = tree[a].tris_only && tree[b].tris_only;
+        }
+    }
+    tree
 }
 
 /// Per-ray constants of the watertight ray/triangle test.
@@ -306,13 +553,16 @@ struct TriRay {
     o: Vec3,
     /// Axis permutation (kx, ky, kz), each < 3.
     k: [usize; 3],
+    /// The origin permuted: (o[kx], o[ky], o[kz]).
+    ok: [f32; 3],
     s: Vec3,
 }
 
 impl TriRay {
     #[inline]
     fn new(ray: &Ray) -> TriRay {
-        let a = ray.d.abs();
+        let d = ray.d;
+        let a = d.abs();
         let kz = if a.x >= a.y && a.x >= a.z {
             0
         } else if a.y >= a.z {
@@ -320,16 +570,15 @@ impl TriRay {
         } else {
             2
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if ray.d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        let dz = ray.d[kz];
+        // (kx, ky): the next two axes after kz, swapped when d[kz] < 0 (keeps the winding)
+        const K: [[[usize; 2]; 2]; 3] = [[[1, 2], [2, 1]], [[2, 0], [0, 2]], [[0, 1], [1, 0]]];
+        let dz = d[kz];
+        let [kx, ky] = K[kz][(dz < 0.0) as usize];
         TriRay {
             o: ray.o,
             k: [kx, ky, kz],
-            s: Vec3::new(ray.d[kx] / dz, ray.d[ky] / dz, 1.0 / dz),
+            ok: [ray.o[kx], ray.o[ky], ray.o[kz]],
+            s: Vec3::new(d[kx] / dz, d[ky] / dz, 1.0 / dz),
         }
     }
 
@@ -356,12 +605,7 @@ impl TriRay {
         let mut v_ = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
         if u == 0.0 || v_ == 0.0 || w == 0.0 {
-            let (ax, ay, bx, by, cx, cy) = (
-                ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64,
-            );
-            u = (cx * by - cy * bx) as f32;
-            v_ = (ax * cy - ay * cx) as f32;
-            w = (bx * ay - by * ax) as f32;
+            (u, v_, w) = edge_functions_f64(ax, ay, bx, by, cx, cy);
         }
         if (u < 0.0 || v_ < 0.0 || w < 0.0) && (u > 0.0 || v_ > 0.0 || w > 0.0) {
             return None;
@@ -380,6 +624,640 @@ impl TriRay {
             return None;
         }
         Some((t, v_ * inv_det, w * inv_det))
+    }
+}
+
+/// The edge functions in double precision, for rays through an edge or a vertex.
+#[cold]
+#[inline(never)]
+fn edge_functions_f64(ax: f32, ay: f32, bx: f32, by: f32, cx: f32, cy: f32) -> (f32, f32, f32) {
+    let (ax, ay, bx, by, cx, cy) = (
+        ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64,
+    );
+    (
+        (cx * by - cy * bx) as f32,
+        (ax * cy - ay * cx) as f32,
+        (bx * ay - by * ax) as f32,
+    )
+}
+
+/// Results of a packet test: per lane t and the barycentrics b1, b2 (meaningful for the lanes
+/// set in the returned mask).
+#[derive(Clone, Copy)]
+#[repr(C, align(16))]
+struct TriOut {
+    t: [f32; LANES],
+    b1: [f32; LANES],
+    b2: [f32; LANES],
+}
+
+/// Per-ray constants of the box test.
+#[derive(Clone, Copy)]
+struct BoxRay {
+    o: [f32; 3],
+    inv: [f32; 3],
+    /// Per axis, the plane arrays (`Node::b` indices) met first and last.
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+impl BoxRay {
+    #[inline]
+    fn new(ray: &Ray) -> BoxRay {
+        // +0 for zero components (including −0), which get +MAX_INV_DIR
+        let d = Vec3A::from(ray.d) + Vec3A::ZERO;
+        let max = Vec3A::splat(MAX_INV_DIR);
+        let inv = (Vec3A::ONE / d).clamp(-max, max);
+        let inv = Vec3A::select(d.cmpeq(Vec3A::ZERO), max, inv);
+        let neg = inv.cmplt(Vec3A::ZERO).bitmask() as usize;
+        let n = |a: usize| (neg >> a) & 1;
+        BoxRay {
+            o: ray.o.to_array(),
+            inv: inv.to_array(),
+            near: [n(0), 2 + n(1), 4 + n(2)],
+            far: [1 - n(0), 3 - n(1), 5 - n(2)],
+        }
+    }
+}
+
+/// The 8-box slab test.
+trait BoxTest {
+    /// Bit i set when the ray enters child i's box at some t in [0, t_max]; `tnear[i]` is
+    /// where it enters (at least 0).
+    unsafe fn test(n: &Node, r: &BoxRay, t_max: f32, tnear: &mut [f32; WIDTH]) -> u32;
+}
+
+/// The 4-triangle watertight test.
+trait PacketTest {
+    /// Bit i set when lane i is hit at t in (0, t_max); `out` gets t, b1, b2 per lane.
+    unsafe fn test(p: &TriPacket, tr: &TriRay, t_max: f32, out: &mut TriOut) -> u32;
+}
+
+/// Portable scalar tests.
+struct Scalar;
+
+impl BoxTest for Scalar {
+    #[inline(always)]
+    unsafe fn test(n: &Node, r: &BoxRay, t_max: f32, tnear: &mut [f32; WIDTH]) -> u32 {
+        let mut mask = 0;
+        for (i, tnear) in tnear.iter_mut().enumerate() {
+            let tn = |a: usize| (n.b[r.near[a]][i] - r.o[a]) * r.inv[a];
+            let tf = |a: usize| (n.b[r.far[a]][i] - r.o[a]) * r.inv[a];
+            let t0 = tn(0).max(tn(1)).max(tn(2)).max(0.0);
+            let t1 = (tf(0).min(tf(1)).min(tf(2)) * EXIT_SCALE).min(t_max);
+            *tnear = t0;
+            mask |= ((t0 <= t1) as u32) << i;
+        }
+        mask
+    }
+}
+
+impl PacketTest for Scalar {
+    #[inline(always)]
+    unsafe fn test(p: &TriPacket, tr: &TriRay, t_max: f32, out: &mut TriOut) -> u32 {
+        let mut mask = 0;
+        for lane in 0..LANES {
+            let v = [0, 1, 2].map(|k| Vec3::new(p.v[k][0][lane], p.v[k][1][lane], p.v[k][2][lane]));
+            if let Some((t, b1, b2)) = tr.intersect(&v, t_max) {
+                out.t[lane] = t;
+                out.b1[lane] = b1;
+                out.b2[lane] = b2;
+                mask |= 1 << lane;
+            }
+        }
+        mask
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::*;
+    use std::arch::x86_64::*;
+
+    /// SSE2: two 4-wide halves of each node, 4-wide triangle packets.
+    pub(super) struct Sse2;
+    /// AVX: one 8-wide box test (the triangle test is the SSE2 one, VEX-encoded).
+    pub(super) struct Avx2;
+
+    // No closures here: a closure does not inherit the target features of the function it is
+    // defined in, so the intrinsics it calls would not be inlined into the AVX2 entry points.
+
+    impl BoxTest for Sse2 {
+        #[inline(always)]
+        unsafe fn test(n: &Node, r: &BoxRay, t_max: f32, tnear: &mut [f32; WIDTH]) -> u32 {
+            let zero = _mm_setzero_ps();
+            let scale = _mm_set1_ps(EXIT_SCALE);
+            let tmax = _mm_set1_ps(t_max);
+            let (ox, oy, oz) = (
+                _mm_set1_ps(r.o[0]),
+                _mm_set1_ps(r.o[1]),
+                _mm_set1_ps(r.o[2]),
+            );
+            let (ix, iy, iz) = (
+                _mm_set1_ps(r.inv[0]),
+                _mm_set1_ps(r.inv[1]),
+                _mm_set1_ps(r.inv[2]),
+            );
+            let mut mask = 0;
+            for h in [0, 4] {
+                macro_rules! slab {
+                    ($plane:expr, $o:expr, $i:expr) => {
+                        _mm_mul_ps(_mm_sub_ps(_mm_load_ps(n.b[$plane].as_ptr().add(h)), $o), $i)
+                    };
+                }
+                let t0 = _mm_max_ps(
+                    _mm_max_ps(
+                        _mm_max_ps(slab!(r.near[0], ox, ix), slab!(r.near[1], oy, iy)),
+                        slab!(r.near[2], oz, iz),
+                    ),
+                    zero,
+                );
+                let t1 = _mm_min_ps(
+                    _mm_mul_ps(
+                        _mm_min_ps(
+                            _mm_min_ps(slab!(r.far[0], ox, ix), slab!(r.far[1], oy, iy)),
+                            slab!(r.far[2], oz, iz),
+                        ),
+                        scale,
+                    ),
+                    tmax,
+                );
+                _mm_storeu_ps(tnear.as_mut_ptr().add(h), t0);
+                mask |= (_mm_movemask_ps(_mm_cmple_ps(t0, t1)) as u32) << h;
+            }
+            mask
+        }
+    }
+
+    impl BoxTest for Avx2 {
+        #[inline(always)]
+        unsafe fn test(n: &Node, r: &BoxRay, t_max: f32, tnear: &mut [f32; WIDTH]) -> u32 {
+            macro_rules! slab {
+                ($plane:expr, $a:expr) => {
+                    _mm256_mul_ps(
+                        _mm256_sub_ps(
+                            _mm256_load_ps(n.b[$plane].as_ptr()),
+                            _mm256_set1_ps(r.o[$a]),
+                        ),
+                        _mm256_set1_ps(r.inv[$a]),
+                    )
+                };
+            }
+            let t0 = _mm256_max_ps(
+                _mm256_max_ps(
+                    _mm256_max_ps(slab!(r.near[0], 0), slab!(r.near[1], 1)),
+                    slab!(r.near[2], 2),
+                ),
+                _mm256_setzero_ps(),
+            );
+            let t1 = _mm256_min_ps(
+                _mm256_mul_ps(
+                    _mm256_min_ps(
+                        _mm256_min_ps(slab!(r.far[0], 0), slab!(r.far[1], 1)),
+                        slab!(r.far[2], 2),
+                    ),
+                    _mm256_set1_ps(EXIT_SCALE),
+                ),
+                _mm256_set1_ps(t_max),
+            );
+            _mm256_storeu_ps(tnear.as_mut_ptr(), t0);
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32
+        }
+    }
+
+    impl PacketTest for Sse2 {
+        #[inline(always)]
+        unsafe fn test(p: &TriPacket, tr: &TriRay, t_max: f32, out: &mut TriOut) -> u32 {
+            let zero = _mm_setzero_ps();
+            let [kx, ky, kz] = tr.k;
+            let (ox, oy, oz) = (
+                _mm_set1_ps(tr.ok[0]),
+                _mm_set1_ps(tr.ok[1]),
+                _mm_set1_ps(tr.ok[2]),
+            );
+            macro_rules! rel {
+                ($v:expr) => {
+                    (
+                        _mm_sub_ps(_mm_load_ps(p.v[$v][kx].as_ptr()), ox),
+                        _mm_sub_ps(_mm_load_ps(p.v[$v][ky].as_ptr()), oy),
+                        _mm_sub_ps(_mm_load_ps(p.v[$v][kz].as_ptr()), oz),
+                    )
+                };
+            }
+            let (sx, sy, sz) = (
+                _mm_set1_ps(tr.s.x),
+                _mm_set1_ps(tr.s.y),
+                _mm_set1_ps(tr.s.z),
+            );
+            let (a_x, a_y, a_z) = rel!(0);
+            let (b_x, b_y, b_z) = rel!(1);
+            let (c_x, c_y, c_z) = rel!(2);
+            let ax = _mm_sub_ps(a_x, _mm_mul_ps(sx, a_z));
+            let ay = _mm_sub_ps(a_y, _mm_mul_ps(sy, a_z));
+            let bx = _mm_sub_ps(b_x, _mm_mul_ps(sx, b_z));
+            let by = _mm_sub_ps(b_y, _mm_mul_ps(sy, b_z));
+            let cx = _mm_sub_ps(c_x, _mm_mul_ps(sx, c_z));
+            let cy = _mm_sub_ps(c_y, _mm_mul_ps(sy, c_z));
+            let mut u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
+            let mut v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
+            let mut w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
+            let zeros = _mm_or_ps(
+                _mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)),
+                _mm_cmpeq_ps(w, zero),
+            );
+            let zm = _mm_movemask_ps(zeros);
+            if zm != 0 {
+                (u, v, w) = exact_edges(zm, [ax, ay, bx, by, cx, cy], [u, v, w]);
+            }
+            // some edge function negative and some positive: the ray passes outside
+            let neg = _mm_cmplt_ps(_mm_min_ps(_mm_min_ps(u, v), w), zero);
+            let pos = _mm_cmpgt_ps(_mm_max_ps(_mm_max_ps(u, v), w), zero);
+            let det = _mm_add_ps(_mm_add_ps(u, v), w);
+            let az = _mm_mul_ps(sz, a_z);
+            let bz = _mm_mul_ps(sz, b_z);
+            let cz = _mm_mul_ps(sz, c_z);
+            let t_scaled = _mm_add_ps(
+                _mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)),
+                _mm_mul_ps(w, cz),
+            );
+            let inv_det = _mm_div_ps(_mm_set1_ps(1.0), det);
+            let t = _mm_mul_ps(t_scaled, inv_det);
+            let ok = _mm_and_ps(
+                _mm_and_ps(_mm_cmpneq_ps(det, zero), _mm_cmpgt_ps(t, zero)),
+                _mm_cmplt_ps(t, _mm_set1_ps(t_max)),
+            );
+            let mask = _mm_movemask_ps(_mm_andnot_ps(_mm_and_ps(neg, pos), ok)) as u32;
+            _mm_store_ps(out.t.as_mut_ptr(), t);
+            _mm_store_ps(out.b1.as_mut_ptr(), _mm_mul_ps(v, inv_det));
+            _mm_store_ps(out.b2.as_mut_ptr(), _mm_mul_ps(w, inv_det));
+            mask
+        }
+    }
+
+    /// Recomputes the edge functions of the lanes in `lanes` in double precision.
+    #[cold]
+    #[inline(never)]
+    unsafe fn exact_edges(
+        lanes: i32,
+        e: [__m128; 6],
+        uvw: [__m128; 3],
+    ) -> (__m128, __m128, __m128) {
+        let mut s = [[0f32; 4]; 6];
+        for (k, v) in e.iter().enumerate() {
+            _mm_storeu_ps(s[k].as_mut_ptr(), *v);
+        }
+        let mut r = [[0f32; 4]; 3];
+        for (k, v) in uvw.iter().enumerate() {
+            _mm_storeu_ps(r[k].as_mut_ptr(), *v);
+        }
+        for lane in 0..4 {
+            if lanes & (1 << lane) != 0 {
+                let (u, v, w) = edge_functions_f64(
+                    s[0][lane], s[1][lane], s[2][lane], s[3][lane], s[4][lane], s[5][lane],
+                );
+                (r[0][lane], r[1][lane], r[2][lane]) = (u, v, w);
+            }
+        }
+        (
+            _mm_loadu_ps(r[0].as_ptr()),
+            _mm_loadu_ps(r[1].as_ptr()),
+            _mm_loadu_ps(r[2].as_ptr()),
+        )
+    }
+
+    impl Bvh {
+        pub(super) fn closest_sse2(&self, ray: &Ray) -> Option<Hit> {
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe { self.closest::<Sse2, Sse2>(ray) }
+        }
+        pub(super) fn occluded_sse2(&self, ray: &Ray) -> bool {
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe { self.any_hit::<Sse2, Sse2>(ray) }
+        }
+        /// # Safety
+        /// The CPU must support AVX2.
+        #[target_feature(enable = "avx2")]
+        pub(super) unsafe fn closest_avx2(&self, ray: &Ray) -> Option<Hit> {
+            self.closest::<Avx2, Sse2>(ray)
+        }
+        /// # Safety
+        /// The CPU must support AVX2.
+        #[target_feature(enable = "avx2")]
+        pub(super) unsafe fn occluded_avx2(&self, ray: &Ray) -> bool {
+            self.any_hit::<Avx2, Sse2>(ray)
+        }
+    }
+}
+
+/// A traversal stack entry: a child reference and where the ray enters its box.
+#[derive(Clone, Copy)]
+struct Entry {
+    code: u32,
+    t: f32,
+}
+
+/// Entries kept in the fixed array; a deeper stack spills to the heap.
+const STACK: usize = 128;
+
+struct Stack {
+    len: usize,
+    items: [MaybeUninit<Entry>; STACK],
+    spill: Vec<Entry>,
+}
+
+impl Stack {
+    #[inline(always)]
+    fn new() -> Stack {
+        Stack {
+            len: 0,
+            items: [MaybeUninit::uninit(); STACK],
+            spill: Vec::new(),
+        }
+    }
+    #[inline(always)]
+    fn push(&mut self, e: Entry) {
+        if self.len < STACK {
+            self.items[self.len] = MaybeUninit::new(e);
+        } else {
+            self.spill.push(e);
+        }
+        self.len += 1;
+    }
+    #[inline(always)]
+    fn pop(&mut self) -> Option<Entry> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        if self.len < STACK {
+            // SAFETY: entries below `len` (and below STACK) were written by `push`.
+            Some(unsafe { self.items[self.len].assume_init() })
+        } else {
+            self.spill.pop()
+        }
+    }
+}
+
+/// Inserts `e` into `es[..n]`, kept sorted by decreasing distance.
+#[inline(always)]
+fn insert_desc(es: &mut [Entry; WIDTH], n: &mut usize, e: Entry) {
+    let mut j = *n;
+    while j > 0 && es[j - 1].t < e.t {
+        es[j] = es[j - 1];
+        j -= 1;
+    }
+    es[j] = e;
+    *n += 1;
+}
+
+impl Bvh {
+    /// Asks for the cache lines of a child.
+    #[inline(always)]
+    fn prefetch(&self, code: u32) {
+        #[cfg(target_arch = "x86_64")]
+        unsafe {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            if code & LEAF == 0 {
+                let p = self.nodes.as_ptr().add(code as usize) as *const i8;
+                for k in 0..4 {
+                    _mm_prefetch::<_MM_HINT_T0>(p.add(64 * k));
+                }
+            } else if code & ANALYTIC == 0 {
+                let p = self.packets.as_ptr().add((code & INDEX_MASK) as usize) as *const i8;
+                for k in 0..3 {
+                    _mm_prefetch::<_MM_HINT_T0>(p.add(64 * k));
+                }
+            }
+        }
+    }
+
+    /// Intersects an analytic shape.
+    #[inline(never)]
+    fn intersect_analytic(&self, code: u32, ray: &Ray, t_max: f32) -> Option<(f32, f32, f32)> {
+        match &self.analytic[(code & !(LEAF | ANALYTIC)) as usize] {
+            PrimShape::Triangle(v) => TriRay::new(ray).intersect(v, t_max),
+            PrimShape::Sphere { center, radius } => {
+                Some((intersect_sphere(ray, *center, *radius, t_max)?, 0.0, 0.0))
+            }
+            PrimShape::Disk { m, t } => intersect_disk(ray, m, *t, t_max),
+        }
+    }
+
+    /// Closest hit: nearest child first, stacked subtrees beyond the closest hit skipped.
+    #[inline(always)]
+    unsafe fn closest<B: BoxTest, P: PacketTest>(&self, ray: &Ray) -> Option<Hit> {
+        let br = BoxRay::new(ray);
+        let tr = TriRay::new(ray);
+        let mut t_max = ray.t_max;
+        // the closest hit: (leaf reference or packet index · LANES + lane, b1, b2)
+        let mut best: Option<(u32, bool, f32, f32)> = None;
+        let mut stack = Stack::new();
+        let mut tnear = [0f32; WIDTH];
+        let mut out = TriOut {
+            t: [0.0; LANES],
+            b1: [0.0; LANES],
+            b2: [0.0; LANES],
+        };
+        let mut cur = 0u32;
+        'walk: loop {
+            if cur & LEAF == 0 {
+                let node = self.nodes.get_unchecked(cur as usize);
+                let mut mask = B::test(node, &br, t_max, &mut tnear);
+                if mask & mask.wrapping_sub(1) != 0 {
+                    // several children: ask for all their lines at once
+                    let mut m = mask;
+                    while m != 0 {
+                        let i = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        self.prefetch(node.child[i]);
+                    }
+                }
+                if mask != 0 {
+                    let i0 = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    if mask == 0 {
+                        cur = node.child[i0];
+                        continue 'walk;
+                    }
+                    let i1 = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let e0 = Entry {
+                        code: node.child[i0],
+                        t: tnear[i0],
+                    };
+                    let e1 = Entry {
+                        code: node.child[i1],
+                        t: tnear[i1],
+                    };
+                    if mask == 0 {
+                        let (near, far) = if e1.t < e0.t { (e1, e0) } else { (e0, e1) };
+                        stack.push(far);
+                        cur = near.code;
+                        continue 'walk;
+                    }
+                    // three or more: sorted by decreasing distance
+                    let mut es = [e0; WIDTH];
+                    let mut n = 1;
+                    insert_desc(&mut es, &mut n, e1);
+                    while mask != 0 {
+                        let i = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        let e = Entry {
+                            code: node.child[i],
+                            t: tnear[i],
+                        };
+                        insert_desc(&mut es, &mut n, e);
+                    }
+                    for e in &es[..n - 1] {
+                        stack.push(*e);
+                    }
+                    cur = es[n - 1].code;
+                    continue 'walk;
+                }
+            } else if cur & ANALYTIC != 0 {
+                if let Some((t, u, v)) = self.intersect_analytic(cur, ray, t_max) {
+                    t_max = t;
+                    best = Some((cur, true, u, v));
+                }
+            } else {
+                let first = (cur & INDEX_MASK) as usize;
+                let count = ((cur >> COUNT_SHIFT) & 7) as usize + 1;
+                for pi in first..first + count {
+                    let mut m = P::test(self.packets.get_unchecked(pi), &tr, t_max, &mut out);
+                    if m != 0 {
+                        let mut lane = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        while m != 0 {
+                            let l = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            if out.t[l] < out.t[lane] {
+                                lane = l;
+                            }
+                        }
+                        t_max = out.t[lane];
+                        best = Some((
+                            (pi * LANES + lane) as u32,
+                            false,
+                            out.b1[lane],
+                            out.b2[lane],
+                        ));
+                    }
+                }
+            }
+            // next: the nearest stacked subtree the ray may still hit before t_max
+            loop {
+                match stack.pop() {
+                    None => break 'walk,
+                    Some(e) if e.t <= t_max => {
+                        cur = e.code;
+                        continue 'walk;
+                    }
+                    Some(_) => {}
+                }
+            }
+        }
+        best.map(|(code, analytic, u, v)| {
+            let (shape, prim) = if analytic {
+                self.analytic_ids[(code & !(LEAF | ANALYTIC)) as usize]
+            } else {
+                self.packet_ids[code as usize / LANES][code as usize % LANES]
+            };
+            Hit {
+                t: t_max,
+                shape,
+                prim,
+                u,
+                v,
+            }
+        })
+    }
+
+    /// Any hit: children in slot order, stopping at the first hit.
+    #[inline(always)]
+    unsafe fn any_hit<B: BoxTest, P: PacketTest>(&self, ray: &Ray) -> bool {
+        let br = BoxRay::new(ray);
+        let tr = TriRay::new(ray);
+        let t_max = ray.t_max;
+        let mut stack = Stack::new();
+        let mut tnear = [0f32; WIDTH];
+        let mut out = TriOut {
+            t: [0.0; LANES],
+            b1: [0.0; LANES],
+            b2: [0.0; LANES],
+        };
+        let mut cur = 0u32;
+        loop {
+            if cur & LEAF == 0 {
+                let node = self.nodes.get_unchecked(cur as usize);
+                let mut mask = B::test(node, &br, t_max, &mut tnear);
+                if mask != 0 {
+                    let i0 = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    while mask != 0 {
+                        let i = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        stack.push(Entry {
+                            code: node.child[i],
+                            t: 0.0,
+                        });
+                    }
+                    cur = node.child[i0];
+                    continue;
+                }
+            } else if cur & ANALYTIC != 0 {
+                if self.intersect_analytic(cur, ray, t_max).is_some() {
+                    return true;
+                }
+            } else {
+                let first = (cur & INDEX_MASK) as usize;
+                let count = ((cur >> COUNT_SHIFT) & 7) as usize + 1;
+                for pi in first..first + count {
+                    if P::test(self.packets.get_unchecked(pi), &tr, t_max, &mut out) != 0 {
+                        return true;
+                    }
+                }
+            }
+            match stack.pop() {
+                None => return false,
+                Some(e) => cur = e.code,
+            }
+        }
+    }
+}
+
+fn valid_ray(ray: &Ray) -> bool {
+    ray.o.is_finite() && ray.d.is_finite() && ray.d != Vec3::ZERO && ray.t_max > 0.0
+}
+
+impl Intersector for Bvh {
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if !valid_ray(ray) || self.nodes.is_empty() {
+            return None;
+        }
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `set_isa` and `Isa::detect` only select AVX2 on CPUs that have it.
+            Isa::Avx2 => unsafe { self.closest_avx2(ray) },
+            #[cfg(target_arch = "x86_64")]
+            Isa::Sse2 => self.closest_sse2(ray),
+            // SAFETY: the scalar tests need nothing.
+            _ => unsafe { self.closest::<Scalar, Scalar>(ray) },
+        }
+    }
+
+    fn occluded(&self, ray: &Ray) -> bool {
+        if !valid_ray(ray) || self.nodes.is_empty() {
+            return false;
+        }
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `set_isa` and `Isa::detect` only select AVX2 on CPUs that have it.
+            Isa::Avx2 => unsafe { self.occluded_avx2(ray) },
+            #[cfg(target_arch = "x86_64")]
+            Isa::Sse2 => self.occluded_sse2(ray),
+            // SAFETY: the scalar tests need nothing.
+            _ => unsafe { self.any_hit::<Scalar, Scalar>(ray) },
+        }
     }
 }
 
@@ -430,88 +1308,6 @@ fn intersect_disk(ray: &Ray, m: &Mat3, tr: Vec3, t_max: f32) -> Option<(f32, f32
         Some((t, x, y))
     } else {
         None
-    }
-}
-
-#[inline(always)]
-fn intersect_shape(
-    shape: &PrimShape,
-    ray: &Ray,
-    tri: &TriRay,
-    t_max: f32,
-) -> Option<(f32, f32, f32)> {
-    match shape {
-        PrimShape::Triangle(v) => tri.intersect(v, t_max),
-        PrimShape::Sphere { center, radius } => {
-            Some((intersect_sphere(ray, *center, *radius, t_max)?, 0.0, 0.0))
-        }
-        PrimShape::Disk { m, t } => intersect_disk(ray, m, *t, t_max),
-    }
-}
-
-impl Bvh {
-    /// Intersect the primitive in leaf slot `slot`: (t, u, v).
-    #[inline(always)]
-    fn intersect_slot(
-        &self,
-        slot: usize,
-        ray: &Ray,
-        tri: &TriRay,
-        t_max: f32,
-    ) -> Option<(f32, f32, f32)> {
-        let k = self.kind[slot];
-        if k == TRIANGLE {
-            tri.intersect(&self.tris[slot], t_max)
-        } else {
-            intersect_shape(&self.analytic[k as usize], ray, tri, t_max)
-        }
-    }
-}
-
-fn valid_ray(ray: &Ray) -> bool {
-    ray.o.is_finite() && ray.d.is_finite() && ray.d != Vec3::ZERO && ray.t_max > 0.0
-}
-
-impl Intersector for Bvh {
-    fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        if !valid_ray(ray) {
-            return None;
-        }
-        let tri = TriRay::new(ray);
-        let mut t_max = ray.t_max;
-        // the closest hit so far: (slot, t, u, v); ids are looked up once, at the end
-        let mut best: Option<(usize, f32, f32, f32)> = None;
-        self.traverse(ray, &mut t_max, |slot, t_max| {
-            if let Some((t, u, v)) = self.intersect_slot(slot, ray, &tri, *t_max) {
-                *t_max = t;
-                best = Some((slot, t, u, v));
-            }
-            false
-        });
-        best.map(|(slot, t, u, v)| {
-            let (shape, prim) = self.ids[slot];
-            Hit {
-                t,
-                shape,
-                prim,
-                u,
-                v,
-            }
-        })
-    }
-
-    fn occluded(&self, ray: &Ray) -> bool {
-        if !valid_ray(ray) {
-            return false;
-        }
-        let tri = TriRay::new(ray);
-        let mut hit = false;
-        let mut t_max = ray.t_max;
-        self.traverse(ray, &mut t_max, |slot, t_max| {
-            hit = self.intersect_slot(slot, ray, &tri, *t_max).is_some();
-            hit
-        });
-        hit
     }
 }
 
@@ -590,14 +1386,39 @@ mod tests {
         brute_force_bvh(&Bvh::build(geoms), ray)
     }
 
-    /// Every leaf slot of `bvh`, tested one by one (no traversal).
+    /// Every primitive of `bvh`, tested one by one with the scalar routines (no traversal).
     fn brute_force_bvh(bvh: &Bvh, ray: &Ray) -> Option<Hit> {
+        if !valid_ray(ray) {
+            return None;
+        }
         let tri = TriRay::new(ray);
         let mut best: Option<Hit> = None;
-        for slot in 0..bvh.primitive_count() {
+        let mut n = 0;
+        for (p, ids) in bvh.packets.iter().zip(&bvh.packet_ids) {
+            for (lane, &(shape, prim)) in ids.iter().enumerate() {
+                if shape == u32::MAX {
+                    continue;
+                }
+                n += 1;
+                let v =
+                    [0, 1, 2].map(|k| Vec3::new(p.v[k][0][lane], p.v[k][1][lane], p.v[k][2][lane]));
+                let t_max = best.map_or(ray.t_max, |h| h.t);
+                if let Some((t, u, v)) = tri.intersect(&v, t_max) {
+                    best = Some(Hit {
+                        t,
+                        shape,
+                        prim,
+                        u,
+                        v,
+                    });
+                }
+            }
+        }
+        for (i, &(shape, prim)) in bvh.analytic_ids.iter().enumerate() {
+            n += 1;
             let t_max = best.map_or(ray.t_max, |h| h.t);
-            if let Some((t, u, v)) = bvh.intersect_slot(slot, ray, &tri, t_max) {
-                let (shape, prim) = bvh.ids[slot];
+            if let Some((t, u, v)) = bvh.intersect_analytic(LEAF | ANALYTIC | i as u32, ray, t_max)
+            {
                 best = Some(Hit {
                     t,
                     shape,
@@ -607,6 +1428,7 @@ mod tests {
                 });
             }
         }
+        assert_eq!(n, bvh.primitive_count());
         best
     }
 
@@ -616,6 +1438,18 @@ mod tests {
         let bvh = Bvh::build(&geoms);
         let total: usize = geoms.iter().map(|g| g.primitive_count()).sum();
         assert_eq!(bvh.primitive_count(), total);
+        let isas = Isa::available();
+        assert!(isas.contains(&Isa::Scalar) && isas.contains(&Isa::detect()));
+        #[cfg(target_arch = "x86_64")]
+        assert!(isas.contains(&Isa::Sse2));
+        let bvhs: Vec<(Isa, Bvh)> = isas
+            .iter()
+            .map(|&isa| {
+                let mut b = bvh.clone();
+                b.set_isa(isa);
+                (isa, b)
+            })
+            .collect();
         let mut rng = Rng(7);
         let (lo, hi) = (Vec3::new(-4.0, -1.0, -4.0), Vec3::new(4.0, 4.0, 4.0));
         let mut hits = 0;
@@ -634,22 +1468,27 @@ mod tests {
             };
             let ray = Ray { o, d, t_max };
             let want = brute_force_bvh(&bvh, &ray);
-            let got = bvh.intersect(&ray);
-            match (got, want) {
-                (None, None) => {}
-                (Some(g), Some(w)) => {
-                    hits += 1;
-                    assert_eq!(g.t, w.t, "ray {i}: {ray:?}");
-                    if (g.shape, g.prim) != (w.shape, w.prim) {
-                        // Only a tie (a ray through a shared edge) may differ.
-                        assert_eq!(g.t, w.t);
+            let mut first: Option<Option<Hit>> = None;
+            for (isa, bvh) in &bvhs {
+                let got = bvh.intersect(&ray);
+                match (got, want) {
+                    (None, None) => {}
+                    (Some(g), Some(w)) => {
+                        hits += 1;
+                        assert_eq!(g.t, w.t, "{isa:?} ray {i}: {ray:?}");
+                        if (g.shape, g.prim) != (w.shape, w.prim) {
+                            // Only a tie (a ray through a shared edge) may differ.
+                            assert_eq!(g.t, w.t);
+                        }
                     }
+                    _ => panic!("{isa:?} ray {i}: bvh {got:?}, brute force {want:?} ({ray:?})"),
                 }
-                _ => panic!("ray {i}: bvh {got:?}, brute force {want:?} ({ray:?})"),
+                // every implementation gives the same answer, bit for bit
+                assert_eq!(*first.get_or_insert(got), got, "{isa:?} ray {i}");
+                assert_eq!(bvh.occluded(&ray), want.is_some(), "{isa:?} ray {i}");
             }
-            assert_eq!(bvh.occluded(&ray), want.is_some(), "ray {i}");
         }
-        assert!(hits > 1000, "only {hits} hits");
+        assert!(hits > 1000 * bvhs.len(), "only {hits} hits");
     }
 
     #[test]
@@ -854,7 +1693,10 @@ mod tests {
         let bvh = Bvh::build(&geoms);
         let build = t0.elapsed();
         let mut rng = Rng(11);
-        let n = 2_000_000;
+        let n: usize = std::env::var("SPECULA_RAYS")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(2_000_000);
         let rays: Vec<Ray> = (0..n)
             .map(|_| {
                 let o = Vec3::new(0.0, 2.2, -6.5) + rng.in_box(Vec3::splat(-0.1), Vec3::splat(0.1));

@@ -1,0 +1,118 @@
+//! Ray traversal speed on the geometry of `../shared/scenes/meshes.xml` (76 k triangles).
+//!
+//! Run with `cargo bench -p specula-render --bench accel`. Four fixed ray sets of 4096 rays
+//! each, generated once from the scene itself (no random numbers are drawn while measuring):
+//!
+//! - `closest/primary`: camera rays through random film positions;
+//! - `closest/secondary`: rays leaving the primary hits in cosine-distributed directions
+//!   about the geometric normal (what the path tracer traces after a diffuse bounce);
+//! - `occluded/point`: shadow rays from the primary hits to the scene's point light;
+//! - `occluded/directional`: shadow rays from the primary hits towards the directional light.
+//!
+//! Each benchmark iteration traces the whole set, so the time per ray is the reported time
+//! divided by 4096 (criterion's throughput line gives rays/s).
+
+use std::path::Path;
+
+use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
+use glam::Vec3;
+use specula_bsdf::frame::Frame;
+use specula_bsdf::rng::Pcg32;
+use specula_bsdf::warp::square_to_cosine_hemisphere;
+use specula_render::accel::{spawn_ray, spawn_ray_to, Intersector};
+use specula_render::core::Ray;
+use specula_render::scene::Scene;
+
+const N: usize = 4096;
+
+struct Rays {
+    primary: Vec<Ray>,
+    secondary: Vec<Ray>,
+    point: Vec<Ray>,
+    directional: Vec<Ray>,
+}
+
+fn rays(scene: &Scene) -> Rays {
+    let mut rng = Pcg32::new(7, 1);
+    let mut r = Rays {
+        primary: Vec::new(),
+        secondary: Vec::new(),
+        point: Vec::new(),
+        directional: Vec::new(),
+    };
+    let light_pos = Vec3::new(2.0, 3.0, -2.0);
+    let to_sun = -Vec3::new(0.4, -1.0, 0.6).normalize();
+    while r.primary.len() < N || r.secondary.len() < N {
+        let ray = scene.camera.ray(rng.next_vec2());
+        if r.primary.len() < N {
+            r.primary.push(ray);
+        }
+        let Some(hit) = scene.intersect(&ray) else {
+            continue;
+        };
+        let si = scene.geometry[hit.shape as usize].surface(&ray, &hit);
+        let n = if si.n_geo.dot(ray.d) > 0.0 {
+            -si.n_geo
+        } else {
+            si.n_geo
+        };
+        if r.secondary.len() < N {
+            let local = square_to_cosine_hemisphere(rng.next_vec2());
+            let d = Frame::from_normal(n).to_world(local).normalize();
+            r.secondary.push(spawn_ray(si.p, si.n_geo, d));
+            r.point.push(spawn_ray_to(si.p, si.n_geo, light_pos));
+            let mut sun = spawn_ray(si.p, si.n_geo, to_sun);
+            sun.t_max = f32::INFINITY;
+            r.directional.push(sun);
+        }
+    }
+    r
+}
+
+fn bench(c: &mut Criterion) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/meshes.xml");
+    let scene = match Scene::load(&path, &[]) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("skipping the accel benchmark: {e}");
+            return;
+        }
+    };
+    let rays = rays(&scene);
+    let accel = &scene.accel;
+    let mut g = c.benchmark_group("closest");
+    g.throughput(Throughput::Elements(N as u64));
+    for (name, set) in [("primary", &rays.primary), ("secondary", &rays.secondary)] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let mut hits = 0u32;
+                for ray in set.iter() {
+                    hits += accel.intersect(black_box(ray)).is_some() as u32;
+                }
+                hits
+            })
+        });
+    }
+    g.finish();
+    let mut g = c.benchmark_group("occluded");
+    g.throughput(Throughput::Elements(N as u64));
+    for (name, set) in [("point", &rays.point), ("directional", &rays.directional)] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let mut hits = 0u32;
+                for ray in set.iter() {
+                    hits += accel.occluded(black_box(ray)) as u32;
+                }
+                hits
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(20).warm_up_time(std::time::Duration::from_millis(500)).measurement_time(std::time::Duration::from_secs(2));
+    targets = bench
+}
+criterion_main!(benches);

@@ -9,7 +9,8 @@ for each scene. Specula's figure comes from `specula render`'s own summary line.
 optional (`pip install mitsuba`); its `llvm_ad_rgb` variant needs libLLVM (set
 DRJIT_LIBLLVM_PATH, e.g. to /usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 after
 `apt-get install libllvm19`). For the LLVM variant one untimed warm-up render compiles the
-kernels first. Machines are noisy: compare the ratios measured in one run.
+kernels first. Machines are noisy: compare the ratios measured in one run. SPECULA_EXE overrides
+the path of the `specula` binary (default: target/release/specula).
 """
 import argparse, os, re, subprocess, sys, time, pathlib
 
@@ -17,7 +18,7 @@ root = pathlib.Path(__file__).resolve().parent.parent
 shared = root.parent / "shared" / "scenes"
 
 def specula(scene, spp, threads):
-    exe = root / "target" / "release" / "specula"
+    exe = os.environ.get("SPECULA_EXE") or root / "target" / "release" / "specula"
     out = subprocess.run([str(exe), "render", str(scene), "-D", f"spp={spp}", "--quiet",
                           "--threads", str(threads), "-o", "/tmp/specula_bench.exr"],
                          capture_output=True, text=True)

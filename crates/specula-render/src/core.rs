@@ -38,6 +38,10 @@ pub struct Hit {
     pub prim: u32,
     pub u: f32,
     pub v: f32,
+    /// For a triangle, its vertices as the acceleration structure stores them (bit-identical
+    /// to the mesh's), so that the surface can be computed without looking them up again;
+    /// `None` for analytic shapes (or when unknown: the mesh's are used then).
+    pub vertices: Option<[Vec3; 3]>,
 }
 
 /// Local differential geometry at a surface point, following Mitsuba 3's conventions.

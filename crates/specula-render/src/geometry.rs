@@ -471,16 +471,18 @@ impl TriMesh {
     }
 
     fn surface(&self, hit: &Hit) -> SurfaceGeometry {
-        let [i0, i1, i2] = self.indices[hit.prim as usize].map(|k| k as usize);
-        let (p0, p1, p2) = (self.positions[i0], self.positions[i1], self.positions[i2]);
+        let tri = hit.prim as usize;
+        let [p0, p1, p2] = hit.vertices.unwrap_or_else(|| self.triangle(tri));
         let (b1, b2) = (hit.u, hit.v);
         let b0 = 1.0 - b1 - b2;
         let dp0 = p1 - p0;
         let dp1 = p2 - p0;
         let p = p2 * b2 + (p1 * b1 + p0 * b0);
         let mut n = dp0.cross(dp1).normalize_or_zero();
+        let index = || self.indices[tri].map(|k| k as usize);
         let (uv, dp_du) = match &self.uvs {
             Some(uvs) => {
+                let [i0, i1, i2] = index();
                 let (uv0, uv1, uv2) = (uvs[i0], uvs[i1], uvs[i2]);
                 let uv = uv2 * b2 + (uv1 * b1 + uv0 * b0);
                 let duv0 = uv1 - uv0;
@@ -497,6 +499,7 @@ impl TriMesh {
         };
         let mut sn = match &self.normals {
             Some(ns) => {
+                let [i0, i1, i2] = index();
                 let sn = (ns[i0] * b0 + ns[i1] * b1 + ns[i2] * b2).normalize_or_zero();
                 if sn == Vec3::ZERO {
                     n

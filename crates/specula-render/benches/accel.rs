@@ -10,7 +10,10 @@
 //! - `occluded/directional`: shadow rays from the primary hits towards the directional light.
 //!
 //! Each benchmark iteration traces the whole set, so the time per ray is the reported time
-//! divided by 4096 (criterion's throughput line gives rays/s).
+//! divided by 4096 (criterion's throughput line gives rays/s). The plain names measure the
+//! box/triangle test implementation picked for this CPU (AVX2 where available); the other
+//! implementations follow as `sse2/…` and `scalar/…` (`-- '^(closest|occluded)'` runs only
+//! the plain ones).
 
 use std::path::Path;
 
@@ -19,7 +22,7 @@ use glam::Vec3;
 use specula_bsdf::frame::Frame;
 use specula_bsdf::rng::Pcg32;
 use specula_bsdf::warp::square_to_cosine_hemisphere;
-use specula_render::accel::{spawn_ray, spawn_ray_to, Intersector};
+use specula_render::accel::{spawn_ray, spawn_ray_to, Intersector, Isa};
 use specula_render::core::Ray;
 use specula_render::scene::Scene;
 
@@ -79,35 +82,47 @@ fn bench(c: &mut Criterion) {
         }
     };
     let rays = rays(&scene);
-    let accel = &scene.accel;
-    let mut g = c.benchmark_group("closest");
-    g.throughput(Throughput::Elements(N as u64));
-    for (name, set) in [("primary", &rays.primary), ("secondary", &rays.secondary)] {
-        g.bench_function(name, |b| {
-            b.iter(|| {
-                let mut hits = 0u32;
-                for ray in set.iter() {
-                    hits += accel.intersect(black_box(ray)).is_some() as u32;
-                }
-                hits
-            })
-        });
+    // the implementation picked for this CPU under the plain names, the others prefixed
+    let best = scene.accel.isa();
+    let mut isas = vec![best];
+    isas.extend(Isa::available().into_iter().rev().filter(|&i| i != best));
+    for isa in isas {
+        let mut accel = scene.accel.clone();
+        accel.set_isa(isa);
+        let prefix = if isa == best {
+            String::new()
+        } else {
+            format!("{isa:?}/").to_lowercase()
+        };
+        let mut g = c.benchmark_group(format!("{prefix}closest"));
+        g.throughput(Throughput::Elements(N as u64));
+        for (name, set) in [("primary", &rays.primary), ("secondary", &rays.secondary)] {
+            g.bench_function(name, |b| {
+                b.iter(|| {
+                    let mut hits = 0u32;
+                    for ray in set.iter() {
+                        hits += accel.intersect(black_box(ray)).is_some() as u32;
+                    }
+                    hits
+                })
+            });
+        }
+        g.finish();
+        let mut g = c.benchmark_group(format!("{prefix}occluded"));
+        g.throughput(Throughput::Elements(N as u64));
+        for (name, set) in [("point", &rays.point), ("directional", &rays.directional)] {
+            g.bench_function(name, |b| {
+                b.iter(|| {
+                    let mut hits = 0u32;
+                    for ray in set.iter() {
+                        hits += accel.occluded(black_box(ray)) as u32;
+                    }
+                    hits
+                })
+            });
+        }
+        g.finish();
     }
-    g.finish();
-    let mut g = c.benchmark_group("occluded");
-    g.throughput(Throughput::Elements(N as u64));
-    for (name, set) in [("point", &rays.point), ("directional", &rays.directional)] {
-        g.bench_function(name, |b| {
-            b.iter(|| {
-                let mut hits = 0u32;
-                for ray in set.iter() {
-                    hits += accel.occluded(black_box(ray)) as u32;
-                }
-                hits
-            })
-        });
-    }
-    g.finish();
 }
 
 criterion_group! {

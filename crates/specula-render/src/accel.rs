@@ -3,9 +3,11 @@
 //! **Structure.** The binary tree is built by obvhs (PLOC, then a thorough reinsertion pass)
 //! and collapsed into nodes of up to 8 children (greedily opening the child with the largest
 //! surface area). Each node stores its children's boxes as arrays of f32 (one array per
-//! plane), so one ray is tested against all 8 boxes at once; subtrees of at most 4 triangles
-//! become leaves holding one [`TriPacket`] (the triangles' vertices, one array per coordinate),
-//! tested 4 at a time. Nodes and packets are laid out depth-first. Closest-hit queries visit
+//! plane), so one ray is tested against all 8 boxes at once; subtrees of at most 8 triangles
+//! become leaves of one or two [`TriPacket`]s (4 triangles' vertices, one array per
+//! coordinate), tested 4 at a time, or both packets as 8 lanes with AVX2 (leaves of 8 rather
+//! than 4 triangles: one node level less, ~6 % faster on meshes.xml). Nodes and packets are
+//! laid out depth-first. Closest-hit queries visit
 //! the children nearest first and skip stacked subtrees that lie beyond the closest hit so far;
 //! occlusion queries stop at the first hit.
 //!
@@ -118,8 +120,8 @@ struct Prim {
 const WIDTH: usize = 8;
 /// Triangles per packet.
 const LANES: usize = 4;
-/// Subtrees with at most this many triangles (and nothing else) become one leaf.
-const LEAF_TRIS: u32 = 4;
+/// Subtrees with at most this many triangles (and nothing else) become one leaf (2 packets).
+const LEAF_TRIS: u32 = 8;
 
 // A child reference (`u32`): a node index; or `LEAF | (packets − 1) << COUNT_SHIFT | first
 // packet`; or `LEAF | ANALYTIC | index` of an analytic shape.
@@ -663,9 +665,9 @@ fn edge_functions_f64(ax: f32, ay: f32, bx: f32, by: f32, cx: f32, cy: f32) -> (
 #[derive(Clone, Copy)]
 #[repr(C, align(16))]
 struct TriOut {
-    t: [f32; LANES],
-    b1: [f32; LANES],
-    b2: [f32; LANES],
+    t: [f32; 2 * LANES],
+    b1: [f32; 2 * LANES],
+    b2: [f32; 2 * LANES],
 }
 
 /// Per-ray constants of the box test.
@@ -679,8 +681,6 @@ struct BoxRay {
     /// The same as offsets in floats from the start of `Node::b` (`plane · WIDTH`).
     near_at: [usize; 3],
     far_at: [usize; 3],
-    /// Bit a set when the direction's component a is negative.
-    octant: u32,
 }
 
 impl BoxRay {
@@ -700,7 +700,6 @@ impl BoxRay {
             far: [1 - n(0), 3 - n(1), 5 - n(2)],
             near_at: [n(0), 2 + n(1), 4 + n(2)].map(|p| p * WIDTH),
             far_at: [1 - n(0), 3 - n(1), 5 - n(2)].map(|p| p * WIDTH),
-            octant: neg as u32,
         }
     }
 }
@@ -714,8 +713,20 @@ trait BoxTest {
 
 /// The 4-triangle watertight test.
 trait PacketTest {
-    /// Bit i set when lane i is hit at t in (0, t_max); `out` gets t, b1, b2 per lane.
+    /// Bit i set when lane i is hit at t in (0, t_max); `out` gets t, b1, b2 per lane
+    /// (`out[..4]`).
     unsafe fn test(p: &TriPacket, tr: &TriRay, t_max: f32, out: &mut TriOut) -> u32;
+    /// Two packets as 8 lanes (`p[0]` lanes 0–3, `p[1]` lanes 4–7).
+    #[inline(always)]
+    unsafe fn test2(p: *const TriPacket, tr: &TriRay, t_max: f32, out: &mut TriOut) -> u32 {
+        let m0 = Self::test(&*p, tr, t_max, out);
+        let mut hi = *out;
+        let m1 = Self::test(&*p.add(1), tr, t_max, &mut hi);
+        out.t[LANES..].copy_from_slice(&hi.t[..LANES]);
+        out.b1[LANES..].copy_from_slice(&hi.b1[..LANES]);
+        out.b2[LANES..].copy_from_slice(&hi.b2[..LANES]);
+        m0 | m1 << LANES
+    }
 }
 
 /// Portable scalar tests.
@@ -815,55 +826,35 @@ mod x86 {
         }
     }
 
-    /// The AVX2 box test for one octant of ray directions (`X`, `Y`, `Z`: 1 where the
-    /// direction component is negative), so that the planes' offsets are constants.
-    #[inline(always)]
-    unsafe fn test_octant<const X: usize, const Y: usize, const Z: usize>(
-        n: &Node,
-        r: &BoxRay,
-        t_max: f32,
-        tnear: &mut [f32; WIDTH],
-    ) -> u32 {
-        macro_rules! slab {
-            ($plane:expr, $a:expr) => {
-                _mm256_fmsub_ps(
-                    _mm256_load_ps(n.b[$plane].as_ptr()),
-                    _mm256_set1_ps(r.inv[$a]),
-                    _mm256_set1_ps(r.o[$a] * r.inv[$a]),
-                )
-            };
-        }
-        let t0 = _mm256_max_ps(
-            _mm256_max_ps(_mm256_max_ps(slab!(X, 0), slab!(2 + Y, 1)), slab!(4 + Z, 2)),
-            _mm256_setzero_ps(),
-        );
-        let t1 = _mm256_min_ps(
-            _mm256_mul_ps(
-                _mm256_min_ps(
-                    _mm256_min_ps(slab!(1 - X, 0), slab!(3 - Y, 1)),
-                    slab!(5 - Z, 2),
-                ),
-                _mm256_set1_ps(EXIT_SCALE),
-            ),
-            _mm256_set1_ps(t_max),
-        );
-        _mm256_storeu_ps(tnear.as_mut_ptr(), t0);
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32
-    }
-
     impl BoxTest for Avx2 {
         #[inline(always)]
         unsafe fn test(n: &Node, r: &BoxRay, t_max: f32, tnear: &mut [f32; WIDTH]) -> u32 {
-            match r.octant {
-                0 => test_octant::<0, 0, 0>(n, r, t_max, tnear),
-                1 => test_octant::<1, 0, 0>(n, r, t_max, tnear),
-                2 => test_octant::<0, 1, 0>(n, r, t_max, tnear),
-                3 => test_octant::<1, 1, 0>(n, r, t_max, tnear),
-                4 => test_octant::<0, 0, 1>(n, r, t_max, tnear),
-                5 => test_octant::<1, 0, 1>(n, r, t_max, tnear),
-                6 => test_octant::<0, 1, 1>(n, r, t_max, tnear),
-                _ => test_octant::<1, 1, 1>(n, r, t_max, tnear),
+            let b = n.b.as_ptr() as *const f32;
+            // t = p·(1/d) − o·(1/d) in one fused operation; the exit distances get the
+            // EXIT_SCALE widening folded into the factors. The reductions are balanced trees:
+            // the box test is on the critical path of every node visit.
+            macro_rules! slab {
+                ($plane:expr, $a:expr, $s:expr) => {
+                    _mm256_fmsub_ps(
+                        _mm256_load_ps(b.add($plane)),
+                        _mm256_set1_ps(r.inv[$a] * $s),
+                        _mm256_set1_ps(r.o[$a] * r.inv[$a] * $s),
+                    )
+                };
             }
+            let t0 = _mm256_max_ps(
+                _mm256_max_ps(slab!(r.near_at[0], 0, 1.0), slab!(r.near_at[1], 1, 1.0)),
+                _mm256_max_ps(slab!(r.near_at[2], 2, 1.0), _mm256_setzero_ps()),
+            );
+            let t1 = _mm256_min_ps(
+                _mm256_min_ps(
+                    slab!(r.far_at[0], 0, EXIT_SCALE),
+                    slab!(r.far_at[1], 1, EXIT_SCALE),
+                ),
+                _mm256_min_ps(slab!(r.far_at[2], 2, EXIT_SCALE), _mm256_set1_ps(t_max)),
+            );
+            _mm256_storeu_ps(tnear.as_mut_ptr(), t0);
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32
         }
     }
 
@@ -936,6 +927,118 @@ mod x86 {
         }
     }
 
+    impl PacketTest for Avx2 {
+        #[inline(always)]
+        unsafe fn test(p: &TriPacket, tr: &TriRay, t_max: f32, out: &mut TriOut) -> u32 {
+            <Sse2 as PacketTest>::test(p, tr, t_max, out)
+        }
+
+        /// The SSE2 test on 8 lanes: the same operations, lane by lane.
+        #[inline(always)]
+        unsafe fn test2(p: *const TriPacket, tr: &TriRay, t_max: f32, out: &mut TriOut) -> u32 {
+            let (p0, p1) = (&*p, &*p.add(1));
+            let zero = _mm256_setzero_ps();
+            let [kx, ky, kz] = tr.k;
+            let (ox, oy, oz) = (
+                _mm256_set1_ps(tr.ok[0]),
+                _mm256_set1_ps(tr.ok[1]),
+                _mm256_set1_ps(tr.ok[2]),
+            );
+            macro_rules! ld {
+                ($v:expr, $k:expr) => {
+                    _mm256_set_m128(
+                        _mm_load_ps(p1.v[$v][$k].as_ptr()),
+                        _mm_load_ps(p0.v[$v][$k].as_ptr()),
+                    )
+                };
+            }
+            macro_rules! rel {
+                ($v:expr) => {
+                    (
+                        _mm256_sub_ps(ld!($v, kx), ox),
+                        _mm256_sub_ps(ld!($v, ky), oy),
+                        _mm256_sub_ps(ld!($v, kz), oz),
+                    )
+                };
+            }
+            let (sx, sy, sz) = (
+                _mm256_set1_ps(tr.s.x),
+                _mm256_set1_ps(tr.s.y),
+                _mm256_set1_ps(tr.s.z),
+            );
+            let (a_x, a_y, a_z) = rel!(0);
+            let (b_x, b_y, b_z) = rel!(1);
+            let (c_x, c_y, c_z) = rel!(2);
+            let ax = _mm256_sub_ps(a_x, _mm256_mul_ps(sx, a_z));
+            let ay = _mm256_sub_ps(a_y, _mm256_mul_ps(sy, a_z));
+            let bx = _mm256_sub_ps(b_x, _mm256_mul_ps(sx, b_z));
+            let by = _mm256_sub_ps(b_y, _mm256_mul_ps(sy, b_z));
+            let cx = _mm256_sub_ps(c_x, _mm256_mul_ps(sx, c_z));
+            let cy = _mm256_sub_ps(c_y, _mm256_mul_ps(sy, c_z));
+            let mut u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
+            let mut v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
+            let mut w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
+            let zeros = _mm256_or_ps(
+                _mm256_or_ps(
+                    _mm256_cmp_ps::<_CMP_EQ_OQ>(u, zero),
+                    _mm256_cmp_ps::<_CMP_EQ_OQ>(v, zero),
+                ),
+                _mm256_cmp_ps::<_CMP_EQ_OQ>(w, zero),
+            );
+            let zm = _mm256_movemask_ps(zeros);
+            if zm != 0 {
+                let mut e = [[0f32; 8]; 9];
+                for (k, x) in [ax, ay, bx, by, cx, cy, u, v, w].iter().enumerate() {
+                    _mm256_storeu_ps(e[k].as_mut_ptr(), *x);
+                }
+                exact_edges8(zm, &mut e);
+                u = _mm256_loadu_ps(e[6].as_ptr());
+                v = _mm256_loadu_ps(e[7].as_ptr());
+                w = _mm256_loadu_ps(e[8].as_ptr());
+            }
+            let neg = _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_min_ps(_mm256_min_ps(u, v), w), zero);
+            let pos = _mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_max_ps(_mm256_max_ps(u, v), w), zero);
+            let det = _mm256_add_ps(_mm256_add_ps(u, v), w);
+            let az = _mm256_mul_ps(sz, a_z);
+            let bz = _mm256_mul_ps(sz, b_z);
+            let cz = _mm256_mul_ps(sz, c_z);
+            let t_scaled = _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
+                _mm256_mul_ps(w, cz),
+            );
+            let inv_det = _mm256_div_ps(_mm256_set1_ps(1.0), det);
+            let t = _mm256_mul_ps(t_scaled, inv_det);
+            let ok = _mm256_and_ps(
+                _mm256_and_ps(
+                    _mm256_cmp_ps::<_CMP_NEQ_UQ>(det, zero),
+                    _mm256_cmp_ps::<_CMP_GT_OQ>(t, zero),
+                ),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_set1_ps(t_max)),
+            );
+            let mask = _mm256_movemask_ps(_mm256_andnot_ps(_mm256_and_ps(neg, pos), ok)) as u32;
+            _mm256_storeu_ps(out.t.as_mut_ptr(), t);
+            _mm256_storeu_ps(out.b1.as_mut_ptr(), _mm256_mul_ps(v, inv_det));
+            _mm256_storeu_ps(out.b2.as_mut_ptr(), _mm256_mul_ps(w, inv_det));
+            mask
+        }
+    }
+
+    /// `e` = (ax, ay, bx, by, cx, cy, u, v, w) per lane: recomputes u, v, w of the lanes in
+    /// `lanes` in double precision.
+    #[cold]
+    #[inline(never)]
+    #[allow(clippy::needless_range_loop)]
+    fn exact_edges8(lanes: i32, e: &mut [[f32; 8]; 9]) {
+        for lane in 0..8 {
+            if lanes & (1 << lane) != 0 {
+                let (u, v, w) = edge_functions_f64(
+                    e[0][lane], e[1][lane], e[2][lane], e[3][lane], e[4][lane], e[5][lane],
+                );
+                (e[6][lane], e[7][lane], e[8][lane]) = (u, v, w);
+            }
+        }
+    }
+
     /// Recomputes the edge functions of the lanes in `lanes` in double precision.
     #[cold]
     #[inline(never)]
@@ -980,13 +1083,13 @@ mod x86 {
         /// The CPU must support AVX2 and FMA.
         #[target_feature(enable = "avx2,fma")]
         pub(super) unsafe fn closest_avx2(&self, ray: &Ray) -> Option<Hit> {
-            self.closest::<Avx2, Sse2>(ray)
+            self.closest::<Avx2, Avx2>(ray)
         }
         /// # Safety
         /// The CPU must support AVX2 and FMA.
         #[target_feature(enable = "avx2,fma")]
         pub(super) unsafe fn occluded_avx2(&self, ray: &Ray) -> bool {
-            self.any_hit::<Avx2, Sse2>(ray)
+            self.any_hit::<Avx2, Avx2>(ray)
         }
     }
 }
@@ -1096,9 +1199,9 @@ impl Bvh {
         let mut stack = Stack::new();
         let mut tnear = [0f32; WIDTH];
         let mut out = TriOut {
-            t: [0.0; LANES],
-            b1: [0.0; LANES],
-            b2: [0.0; LANES],
+            t: [0.0; 2 * LANES],
+            b1: [0.0; 2 * LANES],
+            b2: [0.0; 2 * LANES],
         };
         let mut cur = 0u32;
         'walk: loop {
@@ -1164,8 +1267,17 @@ impl Bvh {
             } else {
                 let first = (cur & INDEX_MASK) as usize;
                 let count = ((cur >> COUNT_SHIFT) & 7) as usize + 1;
-                for pi in first..first + count {
-                    let mut m = P::test(self.packets.get_unchecked(pi), &tr, t_max, &mut out);
+                let end = first + count;
+                let mut pi = first;
+                while pi < end {
+                    // two packets at a time where there are two (8 lanes with AVX2)
+                    let pair = pi + 1 < end;
+                    let packet = self.packets.as_ptr().add(pi);
+                    let mut m = if pair {
+                        P::test2(packet, &tr, t_max, &mut out)
+                    } else {
+                        P::test(&*packet, &tr, t_max, &mut out)
+                    };
                     if m != 0 {
                         let mut lane = m.trailing_zeros() as usize;
                         m &= m - 1;
@@ -1177,6 +1289,7 @@ impl Bvh {
                             }
                         }
                         t_max = out.t[lane];
+                        // lanes 4–7 of a pair are those of the next packet
                         best = Some((
                             (pi * LANES + lane) as u32,
                             false,
@@ -1184,6 +1297,7 @@ impl Bvh {
                             out.b2[lane],
                         ));
                     }
+                    pi += 1 + pair as usize;
                 }
             }
             // next: the nearest stacked subtree the ray may still hit before t_max
@@ -1227,9 +1341,9 @@ impl Bvh {
         let mut stack = Stack::new();
         let mut tnear = [0f32; WIDTH];
         let mut out = TriOut {
-            t: [0.0; LANES],
-            b1: [0.0; LANES],
-            b2: [0.0; LANES],
+            t: [0.0; 2 * LANES],
+            b1: [0.0; 2 * LANES],
+            b2: [0.0; 2 * LANES],
         };
         let mut cur = 0u32;
         loop {
@@ -1257,8 +1371,18 @@ impl Bvh {
             } else {
                 let first = (cur & INDEX_MASK) as usize;
                 let count = ((cur >> COUNT_SHIFT) & 7) as usize + 1;
-                for pi in first..first + count {
-                    if P::test(self.packets.get_unchecked(pi), &tr, t_max, &mut out) != 0 {
+                let end = first + count;
+                let mut pi = first;
+                while pi < end {
+                    let packet = self.packets.as_ptr().add(pi);
+                    let m = if pi + 1 < end {
+                        pi += 2;
+                        P::test2(packet, &tr, t_max, &mut out)
+                    } else {
+                        pi += 1;
+                        P::test(&*packet, &tr, t_max, &mut out)
+                    };
+                    if m != 0 {
                         return true;
                     }
                 }

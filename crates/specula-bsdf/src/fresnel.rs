@@ -108,20 +108,40 @@ pub fn critical_angle(eta: f32) -> Option<f32> {
 /// Rs = (a²+b² − 2a cosθ + cos²θ) / (a²+b² + 2a cosθ + cos²θ) and
 /// Rp = Rs · (a²+b² cos²θ − 2a cosθ sin²θ + sin⁴θ) / (a²+b² cos²θ + 2a cosθ sin²θ + sin⁴θ).
 pub fn fresnel_conductor_polarized(cos_theta_i: f32, eta: f32, k: f32) -> Polarized {
-    let c = cos_theta_i.clamp(0.0, 1.0);
-    let c2 = c * c;
-    let s2 = 1.0 - c2;
-    let t = eta * eta - k * k - s2;
-    let a2b2 = (t * t + 4.0 * eta * eta * k * k).max(0.0).sqrt();
-    let a = (0.5 * (a2b2 + t)).max(0.0).sqrt();
-    let t1 = a2b2 + c2;
-    let t2 = 2.0 * a * c;
-    let rs = (t1 - t2) / (t1 + t2);
-    let t3 = a2b2 * c2 + s2 * s2;
-    let t4 = t2 * s2;
-    let rp = rs * (t3 - t4) / (t3 + t4);
+    let (rs, rp) = conductor_rs_rp_f32(cos_theta_i, eta, k);
     Polarized { rs, rp }
 }
+
+/// [`fresnel_conductor`] in double precision (for fitting, where finite differences of the
+/// reflectance must not drown in single-precision rounding): the same formula, one body.
+pub fn fresnel_conductor_f64(cos_theta_i: f64, eta: f64, k: f64) -> f64 {
+    let (rs, rp) = conductor_rs_rp_f64(cos_theta_i, eta, k);
+    0.5 * (rs + rp)
+}
+
+/// (Rs, Rp) of a conductor, written once for both precisions.
+macro_rules! conductor_rs_rp {
+    ($name:ident, $t:ty) => {
+        #[inline]
+        fn $name(cos_theta_i: $t, eta: $t, k: $t) -> ($t, $t) {
+            let c = cos_theta_i.clamp(0.0, 1.0);
+            let c2 = c * c;
+            let s2 = 1.0 - c2;
+            let t = eta * eta - k * k - s2;
+            let a2b2 = (t * t + 4.0 * eta * eta * k * k).max(0.0).sqrt();
+            let a = (0.5 * (a2b2 + t)).max(0.0).sqrt();
+            let t1 = a2b2 + c2;
+            let t2 = 2.0 * a * c;
+            let rs = (t1 - t2) / (t1 + t2);
+            let t3 = a2b2 * c2 + s2 * s2;
+            let t4 = t2 * s2;
+            let rp = rs * (t3 - t4) / (t3 + t4);
+            (rs, rp)
+        }
+    };
+}
+conductor_rs_rp!(conductor_rs_rp_f32, f32);
+conductor_rs_rp!(conductor_rs_rp_f64, f64);
 
 /// Unpolarised conductor reflectance.
 #[inline]

@@ -52,7 +52,7 @@
 //! at the end).
 
 use crate::bsdf::{BsdfContext, BsdfModel, ShadingPoint};
-use crate::fresnel::FresnelMode;
+use crate::fresnel::{fresnel_conductor_f64, FresnelMode};
 use crate::measured::merl::{
     bin_centre_dirs, theta_d_centre, theta_h_centre, Merl, RES_PHI_D, RES_THETA_D, RES_THETA_H,
     SCALE,
@@ -525,24 +525,6 @@ pub fn conductor_ior(f0: f64, edge_tint: f64) -> (f64, f64) {
     let n = g * n_min + (1.0 - g) * n_max;
     let k2 = (r * (n + 1.0).powi(2) - (n - 1.0).powi(2)) / (1.0 - r);
     (n, k2.max(0.0).sqrt())
-}
-
-/// Unpolarised conductor Fresnel reflectance in double precision (the formula of
-/// [`crate::fresnel::fresnel_conductor`]).
-fn fresnel_conductor_f64(cos: f64, eta: f64, k: f64) -> f64 {
-    let c = cos.clamp(0.0, 1.0);
-    let c2 = c * c;
-    let s2 = 1.0 - c2;
-    let t = eta * eta - k * k - s2;
-    let a2b2 = (t * t + 4.0 * eta * eta * k * k).max(0.0).sqrt();
-    let a = (0.5 * (a2b2 + t)).max(0.0).sqrt();
-    let t1 = a2b2 + c2;
-    let t2 = 2.0 * a * c;
-    let rs = (t1 - t2) / (t1 + t2);
-    let t3 = a2b2 * c2 + s2 * s2;
-    let t4 = t2 * s2;
-    let rp = rs * (t3 - t4) / (t3 + t4);
-    0.5 * (rs + rp)
 }
 
 fn conductor_fresnel(cos: f64, f0: f64, tint: f64) -> f64 {

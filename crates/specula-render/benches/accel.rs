@@ -33,6 +33,8 @@ struct Rays {
     secondary: Vec<Ray>,
     point: Vec<Ray>,
     directional: Vec<Ray>,
+    /// 8 camera rays through each of N/8 random pixels (of a 256×192 film).
+    pixels: Vec<Ray>,
 }
 
 fn rays(scene: &Scene) -> Rays {
@@ -42,7 +44,18 @@ fn rays(scene: &Scene) -> Rays {
         secondary: Vec::new(),
         point: Vec::new(),
         directional: Vec::new(),
+        pixels: Vec::new(),
     };
+    while r.pixels.len() < N {
+        let (px, py) = (
+            (rng.next_f32() * 256.0).floor(),
+            (rng.next_f32() * 192.0).floor(),
+        );
+        for _ in 0..8 {
+            let s = glam::Vec2::new((px + rng.next_f32()) / 256.0, (py + rng.next_f32()) / 192.0);
+            r.pixels.push(scene.camera.ray(s));
+        }
+    }
     let light_pos = Vec3::new(2.0, 3.0, -2.0);
     let to_sun = -Vec3::new(0.4, -1.0, 0.6).normalize();
     while r.primary.len() < N || r.secondary.len() < N {
@@ -121,6 +134,30 @@ fn bench(c: &mut Criterion) {
                 })
             });
         }
+        g.finish();
+        // a pixel's 8 camera rays, one by one and as a packet
+        let mut g = c.benchmark_group(format!("{prefix}pixel8"));
+        g.throughput(Throughput::Elements(N as u64));
+        g.bench_function("single", |b| {
+            b.iter(|| {
+                let mut hits = 0u32;
+                for ray in rays.pixels.iter() {
+                    hits += accel.intersect(black_box(ray)).is_some() as u32;
+                }
+                hits
+            })
+        });
+        g.bench_function("packet", |b| {
+            let mut out = [None; 8];
+            b.iter(|| {
+                let mut hits = 0u32;
+                for packet in rays.pixels.chunks(8) {
+                    accel.intersect_packet(black_box(packet), &mut out);
+                    hits += out.iter().filter(|h| h.is_some()).count() as u32;
+                }
+                hits
+            })
+        });
         g.finish();
     }
 }

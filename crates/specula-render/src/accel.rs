@@ -59,6 +59,13 @@ pub trait Intersector: Send + Sync {
     fn intersect(&self, ray: &Ray) -> Option<Hit>;
     /// Whether anything intersects the ray with t in (0, `ray.t_max`).
     fn occluded(&self, ray: &Ray) -> bool;
+    /// `hits[i] = intersect(&rays[i])` for every ray (`hits` at least as long as `rays`); a
+    /// backend may trace coherent rays (a pixel's camera rays) together.
+    fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
+            *hit = self.intersect(ray);
+        }
+    }
 }
 
 /// Mitsuba's `Interaction::offset_p`: `p` moved along the geometric normal `n`, to the side
@@ -1091,8 +1098,159 @@ mod x86 {
         pub(super) unsafe fn occluded_avx2(&self, ray: &Ray) -> bool {
             self.any_hit::<Avx2, Avx2>(ray)
         }
+
+        /// Closest hits of up to 8 rays that share a direction octant (`BoxRay::near_at`
+        /// equal), walked as one packet: each node's 8 boxes are tested against all rays at
+        /// once (one ray per lane), the stack holds a child with the rays that entered it and
+        /// where, and a leaf is tested by each of its rays with the single-ray test. The
+        /// per-ray arithmetic is that of `closest_avx2`, so the hits are the same.
+        ///
+        /// # Safety
+        /// The CPU must support AVX2 and FMA; `rays` holds 1 to 8 valid rays, `hits` as many.
+        #[target_feature(enable = "avx2,fma")]
+        pub(super) unsafe fn closest_packet_avx2(
+            &self,
+            rays: &[Ray],
+            brs: &[BoxRay; 8],
+            hits: &mut [Option<Hit>],
+        ) {
+            let n = rays.len();
+            let all = (1u32 << n) - 1;
+            // per-lane factors of the slab test (lanes ≥ n copy lane 0 and stay inactive)
+            let mut f = [[0f32; 8]; 12];
+            for lane in 0..8 {
+                let r = &brs[lane.min(n - 1)];
+                for a in 0..3 {
+                    f[a][lane] = r.inv[a];
+                    f[3 + a][lane] = r.o[a] * r.inv[a];
+                    f[6 + a][lane] = r.inv[a] * EXIT_SCALE;
+                    f[9 + a][lane] = r.o[a] * r.inv[a] * EXIT_SCALE;
+                }
+            }
+            macro_rules! ld {
+                ($k:expr) => {
+                    _mm256_loadu_ps(f[$k].as_ptr())
+                };
+            }
+            let (inx, iny, inz) = (ld!(0), ld!(1), ld!(2));
+            let (onx, ony, onz) = (ld!(3), ld!(4), ld!(5));
+            let (ifx, ify, ifz) = (ld!(6), ld!(7), ld!(8));
+            let (ofx, ofy, ofz) = (ld!(9), ld!(10), ld!(11));
+            let (near, far) = (brs[0].near_at, brs[0].far_at);
+            let trs: [TriRay; 8] = std::array::from_fn(|i| TriRay::new(&rays[i.min(n - 1)]));
+            let mut t_max = [0f32; 8];
+            for (lane, t) in t_max.iter_mut().enumerate() {
+                *t = rays[lane.min(n - 1)].t_max;
+            }
+            let mut best: [Best; 8] = [None; 8];
+            let mut out = TriOut {
+                t: [0.0; 2 * LANES],
+                b1: [0.0; 2 * LANES],
+                b2: [0.0; 2 * LANES],
+            };
+            let mut stack: Stack<PacketEntry, 96> = Stack::new();
+            let mut kids = [PacketEntry::EMPTY; WIDTH];
+            let zero = _mm256_setzero_ps();
+            let (mut cur, mut active) = (0u32, all);
+            'walk: loop {
+                if cur & LEAF == 0 {
+                    let node = self.nodes.get_unchecked(cur as usize);
+                    let b = node.b.as_ptr() as *const f32;
+                    let tmax = _mm256_loadu_ps(t_max.as_ptr());
+                    let mut k = 0;
+                    for c in 0..WIDTH {
+                        macro_rules! bc {
+                            ($plane:expr) => {
+                                _mm256_broadcast_ss(&*b.add($plane + c))
+                            };
+                        }
+                        let t0 = _mm256_max_ps(
+                            _mm256_max_ps(
+                                _mm256_fmsub_ps(bc!(near[0]), inx, onx),
+                                _mm256_fmsub_ps(bc!(near[1]), iny, ony),
+                            ),
+                            _mm256_max_ps(_mm256_fmsub_ps(bc!(near[2]), inz, onz), zero),
+                        );
+                        let t1 = _mm256_min_ps(
+                            _mm256_min_ps(
+                                _mm256_fmsub_ps(bc!(far[0]), ifx, ofx),
+                                _mm256_fmsub_ps(bc!(far[1]), ify, ofy),
+                            ),
+                            _mm256_min_ps(_mm256_fmsub_ps(bc!(far[2]), ifz, ofz), tmax),
+                        );
+                        let m =
+                            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32 & active;
+                        if m != 0 {
+                            let e = &mut kids[k];
+                            _mm256_store_ps(e.t.as_mut_ptr(), t0);
+                            e.code = node.child[c];
+                            e.mask = m;
+                            // order by where the first of its rays enters
+                            e.key = e.t[m.trailing_zeros() as usize];
+                            self.prefetch(e.code);
+                            k += 1;
+                        }
+                    }
+                    if k > 0 {
+                        // farthest first onto the stack, the nearest visited now
+                        let mut order = [0u8; WIDTH];
+                        for i in 1..k {
+                            let mut j = i;
+                            while j > 0 && kids[order[j - 1] as usize].key < kids[i].key {
+                                order[j] = order[j - 1];
+                                j -= 1;
+                            }
+                            order[j] = i as u8;
+                        }
+                        for &i in &order[..k - 1] {
+                            stack.push(kids[i as usize]);
+                        }
+                        let nearest = &kids[order[k - 1] as usize];
+                        cur = nearest.code;
+                        active = nearest.mask;
+                        continue 'walk;
+                    }
+                } else {
+                    let mut m = active;
+                    while m != 0 {
+                        let lane = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        self.leaf_closest::<Avx2>(
+                            cur,
+                            &rays[lane],
+                            &trs[lane],
+                            &mut t_max[lane],
+                            &mut best[lane],
+                            &mut out,
+                        );
+                    }
+                }
+                // next: a stacked subtree that one of its rays may still hit before its t_max
+                let tmax = _mm256_loadu_ps(t_max.as_ptr());
+                loop {
+                    let Some(e) = stack.pop() else {
+                        break 'walk;
+                    };
+                    let near = _mm256_load_ps(e.t.as_ptr());
+                    let m =
+                        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, tmax)) as u32 & e.mask;
+                    if m != 0 {
+                        cur = e.code;
+                        active = m;
+                        continue 'walk;
+                    }
+                }
+            }
+            for (lane, hit) in hits.iter_mut().enumerate().take(n) {
+                *hit = self.make_hit(best[lane], t_max[lane]);
+            }
+        }
     }
 }
+
+/// The closest hit so far: (analytic leaf reference, or packet index · LANES + lane; whether
+/// analytic; b1; b2).
+type Best = Option<(u32, bool, f32, f32)>;
 
 /// A traversal stack entry: a child reference and where the ray enters its box.
 #[derive(Clone, Copy)]
@@ -1104,24 +1262,25 @@ struct Entry {
 /// Entries kept in the fixed array; a deeper stack spills to the heap.
 const STACK: usize = 128;
 
-struct Stack {
+/// A traversal stack of up to `N` entries in place, deeper ones on the heap.
+struct Stack<E: Copy, const N: usize> {
     len: usize,
-    items: [MaybeUninit<Entry>; STACK],
-    spill: Vec<Entry>,
+    items: [MaybeUninit<E>; N],
+    spill: Vec<E>,
 }
 
-impl Stack {
+impl<E: Copy, const N: usize> Stack<E, N> {
     #[inline(always)]
-    fn new() -> Stack {
+    fn new() -> Self {
         Stack {
             len: 0,
-            items: [MaybeUninit::uninit(); STACK],
+            items: [MaybeUninit::uninit(); N],
             spill: Vec::new(),
         }
     }
     #[inline(always)]
-    fn push(&mut self, e: Entry) {
-        if self.len < STACK {
+    fn push(&mut self, e: E) {
+        if self.len < N {
             self.items[self.len] = MaybeUninit::new(e);
         } else {
             self.spill.push(e);
@@ -1129,18 +1288,38 @@ impl Stack {
         self.len += 1;
     }
     #[inline(always)]
-    fn pop(&mut self) -> Option<Entry> {
+    fn pop(&mut self) -> Option<E> {
         if self.len == 0 {
             return None;
         }
         self.len -= 1;
-        if self.len < STACK {
-            // SAFETY: entries below `len` (and below STACK) were written by `push`.
+        if self.len < N {
+            // SAFETY: entries below `len` (and below N) were written by `push`.
             Some(unsafe { self.items[self.len].assume_init() })
         } else {
             self.spill.pop()
         }
     }
+}
+
+/// A packet traversal stack entry: a child, the rays of the packet that enter its box
+/// (`mask`) and where (`t`, per lane), and the distance it is ordered by.
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+struct PacketEntry {
+    t: [f32; 8],
+    code: u32,
+    mask: u32,
+    key: f32,
+}
+
+impl PacketEntry {
+    const EMPTY: PacketEntry = PacketEntry {
+        t: [0.0; 8],
+        code: 0,
+        mask: 0,
+        key: 0.0,
+    };
 }
 
 /// Inserts `e` into `es[..n]`, kept sorted by decreasing distance.
@@ -1194,9 +1373,8 @@ impl Bvh {
         let br = BoxRay::new(ray);
         let tr = TriRay::new(ray);
         let mut t_max = ray.t_max;
-        // the closest hit: (leaf reference or packet index · LANES + lane, b1, b2)
-        let mut best: Option<(u32, bool, f32, f32)> = None;
-        let mut stack = Stack::new();
+        let mut best: Best = None;
+        let mut stack: Stack<Entry, STACK> = Stack::new();
         let mut tnear = [0f32; WIDTH];
         let mut out = TriOut {
             t: [0.0; 2 * LANES],
@@ -1259,46 +1437,8 @@ impl Bvh {
                     cur = es[n - 1].code;
                     continue 'walk;
                 }
-            } else if cur & ANALYTIC != 0 {
-                if let Some((t, u, v)) = self.intersect_analytic(cur, ray, t_max) {
-                    t_max = t;
-                    best = Some((cur, true, u, v));
-                }
             } else {
-                let first = (cur & INDEX_MASK) as usize;
-                let count = ((cur >> COUNT_SHIFT) & 7) as usize + 1;
-                let end = first + count;
-                let mut pi = first;
-                while pi < end {
-                    // two packets at a time where there are two (8 lanes with AVX2)
-                    let pair = pi + 1 < end;
-                    let packet = self.packets.as_ptr().add(pi);
-                    let mut m = if pair {
-                        P::test2(packet, &tr, t_max, &mut out)
-                    } else {
-                        P::test(&*packet, &tr, t_max, &mut out)
-                    };
-                    if m != 0 {
-                        let mut lane = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        while m != 0 {
-                            let l = m.trailing_zeros() as usize;
-                            m &= m - 1;
-                            if out.t[l] < out.t[lane] {
-                                lane = l;
-                            }
-                        }
-                        t_max = out.t[lane];
-                        // lanes 4–7 of a pair are those of the next packet
-                        best = Some((
-                            (pi * LANES + lane) as u32,
-                            false,
-                            out.b1[lane],
-                            out.b2[lane],
-                        ));
-                    }
-                    pi += 1 + pair as usize;
-                }
+                self.leaf_closest::<P>(cur, ray, &tr, &mut t_max, &mut best, &mut out);
             }
             // next: the nearest stacked subtree the ray may still hit before t_max
             loop {
@@ -1312,6 +1452,67 @@ impl Bvh {
                 }
             }
         }
+        self.make_hit(best, t_max)
+    }
+
+    /// Tests leaf `cur` (triangle packets or an analytic shape) for a hit closer than
+    /// `t_max`, updating `t_max` and `best`.
+    #[inline(always)]
+    unsafe fn leaf_closest<P: PacketTest>(
+        &self,
+        cur: u32,
+        ray: &Ray,
+        tr: &TriRay,
+        t_max: &mut f32,
+        best: &mut Best,
+        out: &mut TriOut,
+    ) {
+        if cur & ANALYTIC != 0 {
+            if let Some((t, u, v)) = self.intersect_analytic(cur, ray, *t_max) {
+                *t_max = t;
+                *best = Some((cur, true, u, v));
+            }
+            return;
+        }
+        let first = (cur & INDEX_MASK) as usize;
+        let count = ((cur >> COUNT_SHIFT) & 7) as usize + 1;
+        let end = first + count;
+        let mut pi = first;
+        while pi < end {
+            // two packets at a time where there are two (8 lanes with AVX2)
+            let pair = pi + 1 < end;
+            let packet = self.packets.as_ptr().add(pi);
+            let mut m = if pair {
+                P::test2(packet, tr, *t_max, out)
+            } else {
+                P::test(&*packet, tr, *t_max, out)
+            };
+            if m != 0 {
+                let mut lane = m.trailing_zeros() as usize;
+                m &= m - 1;
+                while m != 0 {
+                    let l = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    if out.t[l] < out.t[lane] {
+                        lane = l;
+                    }
+                }
+                *t_max = out.t[lane];
+                // lanes 4–7 of a pair are those of the next packet
+                *best = Some((
+                    (pi * LANES + lane) as u32,
+                    false,
+                    out.b1[lane],
+                    out.b2[lane],
+                ));
+            }
+            pi += 1 + pair as usize;
+        }
+    }
+
+    /// The hit recorded as `best` at distance `t`.
+    #[inline(always)]
+    fn make_hit(&self, best: Best, t: f32) -> Option<Hit> {
         best.map(|(code, analytic, u, v)| {
             let (shape, prim, vertices) = if analytic {
                 let (shape, prim) = self.analytic_ids[(code & !(LEAF | ANALYTIC)) as usize];
@@ -1322,7 +1523,7 @@ impl Bvh {
                 (shape, prim, Some(self.packets[p].vertices(lane)))
             };
             Hit {
-                t: t_max,
+                t,
                 shape,
                 prim,
                 u,
@@ -1338,7 +1539,7 @@ impl Bvh {
         let br = BoxRay::new(ray);
         let tr = TriRay::new(ray);
         let t_max = ray.t_max;
-        let mut stack = Stack::new();
+        let mut stack: Stack<Entry, STACK> = Stack::new();
         let mut tnear = [0f32; WIDTH];
         let mut out = TriOut {
             t: [0.0; 2 * LANES],
@@ -1427,6 +1628,27 @@ impl Intersector for Bvh {
             Isa::Sse2 => self.occluded_sse2(ray),
             // SAFETY: the scalar tests need nothing.
             _ => unsafe { self.any_hit::<Scalar, Scalar>(ray) },
+        }
+    }
+
+    fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        #[cfg(target_arch = "x86_64")]
+        if self.isa == Isa::Avx2
+            && (2..=8).contains(&rays.len())
+            && hits.len() >= rays.len()
+            && !self.nodes.is_empty()
+            && rays.iter().all(valid_ray)
+        {
+            let brs: [BoxRay; 8] =
+                std::array::from_fn(|i| BoxRay::new(&rays[i.min(rays.len() - 1)]));
+            if brs.iter().all(|b| b.near_at == brs[0].near_at) {
+                // SAFETY: AVX2 and FMA are present (`isa`); 2 to 8 valid rays, one octant.
+                unsafe { self.closest_packet_avx2(rays, &brs, hits) };
+                return;
+            }
+        }
+        for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
+            *hit = self.intersect(ray);
         }
     }
 }
@@ -1661,6 +1883,60 @@ mod tests {
             }
         }
         assert!(hits > 1000 * bvhs.len(), "only {hits} hits");
+    }
+
+    /// Packets (a pixel's camera rays, wider bundles, rays of one octant going anywhere,
+    /// mixed octants, 1 to 8 rays) give every ray the hit the single-ray query gives it.
+    #[test]
+    fn packets_match_single_rays() {
+        let geoms = scene();
+        let bvh = Bvh::build(&geoms);
+        let mut rng = Rng(3);
+        let (lo, hi) = (Vec3::new(-4.0, -1.0, -4.0), Vec3::new(4.0, 4.0, 4.0));
+        let (mut hits, mut packets) = (0, 0);
+        for i in 0..4000 {
+            let n = 1 + i % 8;
+            let o = rng.in_box(lo, hi);
+            let aim =
+                (rng.in_box(Vec3::new(-2.0, 0.0, -1.0), Vec3::new(2.5, 2.0, 1.0)) - o).normalize();
+            let spread = [0.002, 0.05, 0.5, 2.0][i % 4];
+            let rays: Vec<Ray> = (0..n)
+                .map(|k| {
+                    let d = if i % 7 == 0 {
+                        // one octant, any direction in it
+                        rng.dir().abs() * aim.signum()
+                    } else {
+                        (aim + spread * (rng.dir() * rng.f())).normalize()
+                    };
+                    // a pixel's rays share the origin; some bundles do not
+                    let o = if i % 3 == 0 {
+                        o + 0.01 * k as f32 * rng.dir()
+                    } else {
+                        o
+                    };
+                    let t_max = if i % 5 == 0 {
+                        3.0 * rng.f()
+                    } else {
+                        f32::INFINITY
+                    };
+                    Ray { o, d, t_max }
+                })
+                .collect();
+            let mut got = [None; 8];
+            bvh.intersect_packet(&rays, &mut got);
+            let brs: Vec<BoxRay> = rays.iter().map(BoxRay::new).collect();
+            packets += (n > 1 && brs.iter().all(|b| b.near_at == brs[0].near_at)) as usize;
+            for (k, ray) in rays.iter().enumerate() {
+                let want = bvh.intersect(ray);
+                let key = |h: Option<Hit>| h.map(|h| (h.t, h.shape, h.prim, h.u, h.v));
+                assert_eq!(key(got[k]), key(want), "packet {i}, ray {k}: {ray:?}");
+                hits += want.is_some() as usize;
+            }
+        }
+        // most bundles of several rays are traced as packets (the widest often span octants),
+        // and most of their rays hit something
+        assert!(packets > 2000, "{packets} packets");
+        assert!(hits > 8000, "{hits} hits");
     }
 
     #[test]

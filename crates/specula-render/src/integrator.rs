@@ -180,7 +180,20 @@ impl Scene {
     }
 
     /// Radiance carried along `ray` from the camera (one path sample).
-    pub fn li(&self, mut ray: Ray, rng: &mut Pcg32, counters: &mut Counters) -> Rgb {
+    pub fn li(&self, ray: Ray, rng: &mut Pcg32, counters: &mut Counters) -> Rgb {
+        let hit = self.intersect(&ray);
+        self.li_from(ray, hit, rng, counters)
+    }
+
+    /// [`Scene::li`] with the camera ray's intersection already found (`hit`, as
+    /// `intersect(&ray)` returns it).
+    pub fn li_from(
+        &self,
+        mut ray: Ray,
+        hit: Option<crate::core::Hit>,
+        rng: &mut Pcg32,
+        counters: &mut Counters,
+    ) -> Rgb {
         let settings = self.integrator;
         let ctx = BsdfContext::RADIANCE;
         let mut result = Rgb::ZERO;
@@ -195,9 +208,13 @@ impl Scene {
         } else {
             settings.max_depth
         };
+        let mut first = Some(hit);
         loop {
             counters.rays += 1;
-            let hit = self.intersect(&ray);
+            let hit = match first.take() {
+                Some(hit) => hit,
+                None => self.intersect(&ray),
+            };
             let show_emitters = depth > 0 || !settings.hide_emitters;
             let Some(hit) = hit else {
                 // escaped: infinitely distant lights

@@ -2,10 +2,12 @@
 //! per pixel, blocks merged in a fixed order — the image depends only on the seed, never on
 //! the number of threads.
 
+use crate::accel::Intersector;
+use crate::core::{Hit, Ray};
 use crate::film::ImageBlock;
 use crate::integrator::Counters;
 use crate::scene::Scene;
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use specula_bsdf::rng::Pcg32;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -13,6 +15,8 @@ use std::time::{Duration, Instant};
 
 /// Tile edge in pixels.
 pub const TILE: usize = 32;
+/// Camera rays traced together.
+const PACKET: usize = 8;
 
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
@@ -54,20 +58,37 @@ fn render_tile(
     let mut block = film.new_block(x0, y0, w, h);
     let mut c = Counters::default();
     let inv = Vec2::new(1.0 / film.width as f32, 1.0 / film.height as f32);
+    let mut pos = [Vec2::ZERO; PACKET];
+    let mut rays = [Ray {
+        o: Vec3::ZERO,
+        d: Vec3::Z,
+        t_max: 0.0,
+    }; PACKET];
+    let mut hits: [Option<Hit>; PACKET] = [None; PACKET];
     for y in y0..y0 + h {
         for x in x0..x0 + w {
             let index = (y * film.width + x) as u64;
             let mut rng = Pcg32::new(pixel_seed(opts.seed, index), index);
-            for _ in 0..opts.spp {
-                let pos = Vec2::new(x as f32 + rng.next_f32(), y as f32 + rng.next_f32());
-                let ray = scene.camera.ray(pos * inv);
-                let l = scene.li(ray, &mut rng, &mut c);
-                c.samples += 1;
-                if l.is_finite() {
-                    block.put(pos, l);
-                } else {
-                    c.invalid += 1;
+            // the pixel's camera rays are traced in packets of up to 8 (they are coherent),
+            // then each path goes on alone
+            let mut done = 0;
+            while done < opts.spp {
+                let n = (opts.spp - done).min(PACKET as u32) as usize;
+                for i in 0..n {
+                    pos[i] = Vec2::new(x as f32 + rng.next_f32(), y as f32 + rng.next_f32());
+                    rays[i] = scene.camera.ray(pos[i] * inv);
                 }
+                scene.accel.intersect_packet(&rays[..n], &mut hits[..n]);
+                for i in 0..n {
+                    let l = scene.li_from(rays[i], hits[i].take(), &mut rng, &mut c);
+                    c.samples += 1;
+                    if l.is_finite() {
+                        block.put(pos[i], l);
+                    } else {
+                        c.invalid += 1;
+                    }
+                }
+                done += n as u32;
             }
         }
     }

@@ -209,6 +209,110 @@ impl MicrofacetDistribution {
     }
 }
 
+/// The CDF of the unit-roughness Beckmann visible slope along the view's azimuth, in the erf
+/// domain: C(s) = 1 + s + tanθ/√π · exp(−erfinv(s)²) for s ∈ (−1, erf(cotθ)].
+struct BeckmannSlopeCdf {
+    tan_theta: f32,
+    s_max: f32,
+    c_max: f32,
+}
+
+impl BeckmannSlopeCdf {
+    const INV_SQRT_PI: f32 = 0.564_189_6;
+
+    #[inline]
+    fn new(cos_theta: f32) -> Self {
+        let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+        let tan_theta = sin_theta / cos_theta;
+        let s_max = if tan_theta > 0.0 {
+            erf(1.0 / tan_theta)
+        } else {
+            1.0
+        };
+        let c_max =
+            1.0 + s_max + Self::INV_SQRT_PI * tan_theta * (-(1.0 / tan_theta).powi(2)).exp();
+        BeckmannSlopeCdf {
+            tan_theta,
+            s_max,
+            c_max,
+        }
+    }
+
+    /// The slope x with C(erf(x)) = u · C(s_max), from the first guess `s`.
+    #[inline]
+    fn invert(&self, u: f32, s: f32) -> f32 {
+        let target = u * self.c_max;
+        let (mut lo, mut hi) = (-1.0f32, self.s_max);
+        let mut s = s.clamp(lo, hi);
+        for _ in 0..16 {
+            let x = erfinv_fast(s);
+            let value = 1.0 + s + Self::INV_SQRT_PI * self.tan_theta * (-x * x).exp() - target;
+            // the CDF is O(1): stop at single-precision resolution of the target
+            if value.abs() < 2e-6 {
+                return x;
+            }
+            if value > 0.0 {
+                hi = s;
+            } else {
+                lo = s;
+            }
+            let deriv = 1.0 - x * self.tan_theta;
+            let mut next = s - value / deriv;
+            if !(next > lo && next < hi) || deriv <= 0.0 {
+                next = 0.5 * (lo + hi);
+            }
+            s = next;
+        }
+        erfinv_fast(s)
+    }
+}
+
+/// The inverse of [`BeckmannSlopeCdf`] tabulated over (cosθ, u) as (s + 1)/(s_max + 1),
+/// interpolated bilinearly: only the first guess of the Newton iteration.
+struct BeckmannGuessTable {
+    /// In place (no heap): built lazily on the first sample, which must not allocate.
+    q: [f32; GUESS_COS * GUESS_U],
+}
+
+const GUESS_COS: usize = 33;
+const GUESS_U: usize = 65;
+
+impl BeckmannGuessTable {
+    fn build() -> Self {
+        let mut q = [0.0; GUESS_COS * GUESS_U];
+        for i in 0..GUESS_COS {
+            let cos_theta = (i as f32 / (GUESS_COS - 1) as f32).clamp(1e-6, 1.0);
+            let cdf = BeckmannSlopeCdf::new(cos_theta);
+            for j in 0..GUESS_U {
+                let u = (j as f32 / (GUESS_U - 1) as f32).clamp(1e-6, 1.0 - 1e-6);
+                // the exact solution at grazing incidence, as a start
+                let start = cdf.s_max - (cdf.s_max + 1.0) * erf((-u.ln()).sqrt());
+                let s = erf(cdf.invert(u, start));
+                q[i * GUESS_U + j] = ((s + 1.0) / (cdf.s_max + 1.0)).clamp(0.0, 1.0);
+            }
+        }
+        BeckmannGuessTable { q }
+    }
+
+    #[inline]
+    fn guess(&self, cos_theta: f32, u: f32) -> f32 {
+        let fc = cos_theta * (GUESS_COS - 1) as f32;
+        let fu = u * (GUESS_U - 1) as f32;
+        let i = (fc as usize).min(GUESS_COS - 2);
+        let j = (fu as usize).min(GUESS_U - 2);
+        let (wc, wu) = (fc - i as f32, fu - j as f32);
+        let at = |i: usize, j: usize| self.q[i * GUESS_U + j];
+        let a = at(i, j) + (at(i, j + 1) - at(i, j)) * wu;
+        let b = at(i + 1, j) + (at(i + 1, j + 1) - at(i + 1, j)) * wu;
+        a + (b - a) * wc
+    }
+}
+
+fn beckmann_guess_table() -> &'static BeckmannGuessTable {
+    static TABLE: std::sync::OnceLock<BeckmannGuessTable> = std::sync::OnceLock::new();
+    TABLE.get_or_init(BeckmannGuessTable::build)
+}
+
 /// Smith's Λ for the Beckmann distribution, a = 1/(α tanθ): (erf(a) − 1)/2 + e^(−a²)/(2a√π).
 pub fn beckmann_lambda(a: f32) -> f32 {
     if a > 9.0 {
@@ -242,41 +346,11 @@ fn sample_ggx_vndf_unit(v: Vec3, u: Vec2) -> Vec3 {
 /// domain, and sample the orthogonal slope from the Gaussian.
 fn sample_beckmann_vndf_unit(v: Vec3, u: Vec2) -> Vec3 {
     let cos_theta = v.z.clamp(1e-6, 1.0);
-    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-    let tan_theta = sin_theta / cos_theta;
     let u = Vec2::new(u.x.clamp(1e-6, 1.0 - 1e-6), u.y.clamp(1e-6, 1.0 - 1e-6));
-    const INV_SQRT_PI: f32 = 0.564_189_6;
-    // CDF in s = erf(x): C(s) = 1 + s + tanθ/√π exp(−erfinv(s)²), s ∈ (−1, erf(cotθ)]
-    let s_max = if tan_theta > 0.0 {
-        erf(1.0 / tan_theta)
-    } else {
-        1.0
-    };
-    let c_max = 1.0 + s_max + INV_SQRT_PI * tan_theta * (-(1.0 / tan_theta).powi(2)).exp();
-    let target = u.x * c_max;
-    let (mut lo, mut hi) = (-1.0f32, s_max);
-    // initial guess: the exact solution at grazing incidence, clamped into the bracket
-    let mut s = (s_max - (s_max + 1.0) * erf((-u.x.ln()).sqrt())).clamp(lo, hi);
-    for _ in 0..16 {
-        let x = erfinv_fast(s);
-        let value = 1.0 + s + INV_SQRT_PI * tan_theta * (-x * x).exp() - target;
-        if value > 0.0 {
-            hi = s;
-        } else {
-            lo = s;
-        }
-        // the CDF is O(1): stop at single-precision resolution of the target
-        if value.abs() < 2e-6 {
-            break;
-        }
-        let deriv = 1.0 - x * tan_theta;
-        let mut next = s - value / deriv;
-        if !(next > lo && next < hi) || deriv <= 0.0 {
-            next = 0.5 * (lo + hi);
-        }
-        s = next;
-    }
-    let slope_x = erfinv_fast(s);
+    let cdf = BeckmannSlopeCdf::new(cos_theta);
+    // start from the tabulated inverse: one or two Newton steps then reach single precision
+    let guess = beckmann_guess_table().guess(cos_theta, u.x);
+    let slope_x = cdf.invert(u.x, cdf.s_max - (cdf.s_max + 1.0) * (1.0 - guess));
     let slope_y = erfinv_fast(2.0 * u.y - 1.0);
     // rotate the slopes from the view's azimuth to the frame
     let (sin_phi, cos_phi) = crate::frame::sincos_phi(v);

@@ -3,7 +3,7 @@
 //! integrator: `max_depth` counts path segments (1 = only directly visible emitters, 2 =
 //! direct lighting, −1 = unbounded) and Russian roulette starts at `rr_depth`.
 
-use crate::core::{Ray, SurfaceGeometry};
+use crate::core::{Hit, Ray, SurfaceGeometry};
 use crate::geometry::Geometry;
 use crate::scene::{Light, Scene};
 use glam::{Vec2, Vec3};
@@ -190,7 +190,7 @@ impl Scene {
     pub fn li_from(
         &self,
         mut ray: Ray,
-        hit: Option<crate::core::Hit>,
+        hit: Option<Hit>,
         rng: &mut Pcg32,
         counters: &mut Counters,
     ) -> Rgb {
@@ -208,13 +208,11 @@ impl Scene {
         } else {
             settings.max_depth
         };
-        let mut first = Some(hit);
+        // the camera ray (traced by the caller); each bounce traces the next at its end
+        counters.rays += 1;
+        let mut next = hit;
         loop {
-            counters.rays += 1;
-            let hit = match first.take() {
-                Some(hit) => hit,
-                None => self.intersect(&ray),
-            };
+            let hit = next;
             let show_emitters = depth > 0 || !settings.hide_emitters;
             let Some(hit) = hit else {
                 // escaped: infinitely distant lights
@@ -328,6 +326,8 @@ impl Scene {
                 }
                 throughput /= q;
             }
+            counters.rays += 1;
+            next = self.intersect(&ray);
         }
         result
     }

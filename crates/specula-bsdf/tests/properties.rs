@@ -419,6 +419,39 @@ fn sample_weights_and_pdfs_are_consistent() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// Models that compute `eval_pdf` in one go (sharing D, G1, …) give exactly what `eval` and
+/// `pdf` give apart, for directions on both sides, in both transport modes.
+#[test]
+fn eval_pdf_is_eval_and_pdf() {
+    let sp = ShadingPoint::default();
+    let mut rng = specula_bsdf::rng::Pcg32::new(17, 3);
+    let mut failures = Vec::new();
+    let mut nonzero = 0;
+    for c in cases() {
+        let b = build(&c);
+        for ctx in [BsdfContext::RADIANCE, BsdfContext::IMPORTANCE] {
+            for _ in 0..2000 {
+                let wi = specula_bsdf::warp::square_to_uniform_sphere(rng.next_vec2());
+                let wo = specula_bsdf::warp::square_to_uniform_sphere(rng.next_vec2());
+                let (f, pdf) = b.eval_pdf(&ctx, &sp, wi, wo);
+                let (f2, pdf2) = (b.eval(&ctx, &sp, wi, wo), b.pdf(&ctx, &sp, wi, wo));
+                nonzero += (pdf > 0.0) as usize;
+                let same =
+                    |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+                if !(same(pdf, pdf2) && (0..3).all(|k| same(f[k], f2[k]))) {
+                    failures.push(format!(
+                        "{}: {wi} {wo}: ({f:?}, {pdf}) vs ({f2:?}, {pdf2})",
+                        c.spec
+                    ));
+                    break;
+                }
+            }
+        }
+    }
+    assert!(nonzero > 10_000, "only {nonzero} nonzero pdfs");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 #[test]
 fn reciprocity_holds() {
     let sp = ShadingPoint::default();

@@ -1557,6 +1557,7 @@ impl Bvh {
                     while mask != 0 {
                         let i = mask.trailing_zeros() as usize;
                         mask &= mask - 1;
+                        self.prefetch(node.child[i]);
                         stack.push(Entry {
                             code: node.child[i],
                             t: 0.0,

@@ -73,6 +73,37 @@ impl BsdfModel for RoughConductor {
         self.distr(sp).pdf(wi, m) / (4.0 * dwo)
     }
 
+    /// `eval` and `pdf` sharing the half vector, D and G1(wi) (the same values as apart).
+    #[inline]
+    fn eval_pdf(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return (Spectrum::ZERO, 0.0);
+        }
+        let h = (wi + wo).normalize();
+        let distr = self.distr(sp);
+        let d = distr.eval(h);
+        let (dwi, dwo) = (wi.dot(h), wo.dot(h));
+        if d == 0.0 {
+            let pdf = if dwi <= 0.0 || dwo <= 0.0 {
+                0.0
+            } else {
+                distr.pdf(wi, h) / (4.0 * dwo)
+            };
+            return (Spectrum::ZERO, pdf);
+        }
+        let g1_i = distr.smith_g1(wi, h);
+        let g = g1_i * distr.smith_g1(wo, h);
+        let value = self.fresnel(sp, dwi) * (d * g / (4.0 * wi.z * wo.z));
+        let pdf = if dwi <= 0.0 || dwo <= 0.0 {
+            0.0
+        } else if distr.sample_visible {
+            d * g1_i * dwi.abs() / wi.z / (4.0 * dwo)
+        } else {
+            d * h.z / (4.0 * dwo)
+        };
+        (value, pdf)
+    }
+
     #[inline]
     fn sample(
         &self,

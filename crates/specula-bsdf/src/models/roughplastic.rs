@@ -219,6 +219,39 @@ impl BsdfModel for RoughPlastic {
         ps * spec + pd * warp::square_to_cosine_hemisphere_pdf(wo)
     }
 
+    /// `eval` and `pdf` sharing the half vector, D, G1(wi) and the coat's transmittance
+    /// (the same arithmetic as the two apart, so the same values).
+    fn eval_pdf(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
+        let (ci, co) = (wi.z, wo.z);
+        if ci <= 0.0 || co <= 0.0 {
+            return (Spectrum::ZERO, 0.0);
+        }
+        let distr = self.distr();
+        let h = (wi + wo).normalize();
+        let d = distr.eval(h);
+        let g1_i = distr.smith_g1(wi, h);
+        let f = self.fresnel.eval(wi.dot(h), self.eta).r;
+        let g = g1_i * distr.smith_g1(wo, h);
+        let spec = self.specular_reflectance.eval(sp) * (f * d * g / (4.0 * ci * co));
+        let t_i = self.transmittance(ci);
+        let t_o = self.transmittance(co);
+        let rho = self.diffuse_reflectance.eval(sp);
+        let denom = if self.nonlinear {
+            1.0 - rho * self.internal_reflectance
+        } else {
+            Spectrum::splat(1.0 - self.internal_reflectance)
+        };
+        let value = spec + rho / denom * (FRAC_1_PI / (self.eta * self.eta) * t_i * t_o);
+        let (ps, pd) = self.lobe_probs(t_i);
+        let spec_pdf = if self.sample_visible {
+            d * g1_i / (4.0 * ci)
+        } else {
+            distr.pdf(wi, h) / (4.0 * wo.dot(h))
+        };
+        let pdf = ps * spec_pdf + pd * warp::square_to_cosine_hemisphere_pdf(wo);
+        (value, pdf)
+    }
+
     fn sample(
         &self,
         ctx: &BsdfContext,
@@ -243,11 +276,11 @@ impl BsdfModel for RoughPlastic {
         if wo.z <= 0.0 {
             return None;
         }
-        let pdf = self.pdf(ctx, sp, wi, wo);
+        let (value, pdf) = self.eval_pdf(ctx, sp, wi, wo);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
-        let weight = self.eval(ctx, sp, wi, wo) * (wo.z / pdf);
+        let weight = value * (wo.z / pdf);
         Some(BsdfSample {
             wo,
             weight,

@@ -11,6 +11,13 @@
 //! the children nearest first and skip stacked subtrees that lie beyond the closest hit so far;
 //! occlusion queries stop at the first hit.
 //!
+//! **Packets.** [`Intersector::intersect_packet`] traces up to 8 rays of one direction octant
+//! (a pixel's camera rays) together with AVX2: each child box is tested against all the rays
+//! at once (one ray per lane), a stacked child carries the rays that entered it and where, and
+//! a leaf is tested by each of those rays with the single-ray test, so each ray gets exactly
+//! the hit a single-ray query gives it. Other ISAs, or rays of several octants, are traced
+//! one by one.
+//!
 //! **Instruction sets.** The box and triangle tests have a portable scalar implementation and
 //! SSE2 (always present on x86-64) and AVX2 + FMA (picked at run time when the CPU has them)
 //! ones ([`Bvh::set_isa`] selects one, for tests and benchmarks). The triangle tests perform

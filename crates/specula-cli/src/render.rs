@@ -18,7 +18,7 @@ pub struct RenderArgs {
     /// Default: the scene's name with `.exr`, in the current directory.
     #[arg(short = 'o', long = "output")]
     pub output: Option<PathBuf>,
-    /// Set a scene parameter declared with <default>, e.g. `-D spp=16` (repeatable).
+    /// Set a scene parameter declared with `<default>`, e.g. `-D spp=16` (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub defines: Vec<String>,
     /// Samples per pixel (overrides the scene's sampler).

@@ -4,7 +4,7 @@
 //! and collapsed into nodes of up to 8 children (greedily opening the child with the largest
 //! surface area). Each node stores its children's boxes as arrays of f32 (one array per
 //! plane), so one ray is tested against all 8 boxes at once; subtrees of at most 8 triangles
-//! become leaves of one or two [`TriPacket`]s (4 triangles' vertices, one array per
+//! become leaves of one or two `TriPacket`s (4 triangles' vertices, one array per
 //! coordinate), tested 4 at a time, or both packets as 8 lanes with AVX2 (leaves of 8 rather
 //! than 4 triangles: one node level less, ~6 % faster on meshes.xml). Nodes and packets are
 //! laid out depth-first. Closest-hit queries visit

@@ -81,7 +81,7 @@ impl PerspectiveCamera {
         }
     }
 
-    /// The primary ray through normalised film position `s` ∈ [0,1]² ((0,0) = top-left).
+    /// The primary ray through normalised film position `s` ∈ \[0,1\]² ((0,0) = top-left).
     #[inline]
     pub fn ray(&self, s: Vec2) -> Ray {
         let x = (1.0 - 2.0 * s.x) * self.tan_half_x;

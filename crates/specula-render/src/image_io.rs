@@ -1,5 +1,5 @@
 //! Reading and writing images: PNG and JPEG (8/16-bit, grey/RGB/RGBA), OpenEXR (half/float,
-//! RGB[A] or Y) and Radiance HDR in; float32 RGB OpenEXR (like Mitsuba's `hdrfilm`) and 8-bit
+//! RGB\[A\] or Y) and Radiance HDR in; float32 RGB OpenEXR (like Mitsuba's `hdrfilm`) and 8-bit
 //! sRGB PNG out.
 
 use crate::core::{Result, SceneError};

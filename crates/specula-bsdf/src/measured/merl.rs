@@ -67,7 +67,7 @@ pub const RES_PHI_D: usize = 180;
 pub const ENTRIES: usize = RES_THETA_H * RES_THETA_D * RES_PHI_D;
 /// Size of a MERL file in bytes: the 12-byte header and 3 channels of `f64`.
 pub const FILE_SIZE: usize = 12 + 3 * ENTRIES * 8;
-/// BRDF = stored value × SCALE[channel].
+/// BRDF = stored value × `SCALE[channel]`.
 pub const SCALE: [f64; 3] = [1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0];
 /// Probability with which `sample` draws a cosine-weighted direction instead of using the
 /// tabulated half-vector distribution (robustness where the table is zero or coarse).

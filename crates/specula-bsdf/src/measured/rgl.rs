@@ -6,7 +6,7 @@
 //! azimuth φi) and a microfacet normal ωm = normalize(ωi + ωo), the normal's spherical
 //! coordinates are mapped to the unit square, u_m = (√(2θm/π), (φm − φi + π)/2π) (φm alone for
 //! anisotropic data), and u_m is pulled back through the inverse of the tabulated VNDF warp
-//! (a continuous marginal 2-D distribution conditioned on φi, θi) to a point s ∈ [0,1]².
+//! (a continuous marginal 2-D distribution conditioned on φi, θi) to a point s ∈ \[0,1\]².
 //! The RGB data is tabulated over s. The value Mitsuba returns (f·cosθo) is
 //!
 //! ```text

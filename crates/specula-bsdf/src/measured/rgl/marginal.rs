@@ -1,5 +1,5 @@
 //! Continuous marginal/conditional warping of a bilinearly interpolated 2-D density on
-//! [0,1]², optionally conditioned on `D` extra parameters (linear interpolation between
+//! \[0,1\]², optionally conditioned on `D` extra parameters (linear interpolation between
 //! the slices where the density was tabulated). The same scheme as Mitsuba's
 //! `Marginal2D<Float, D, Continuous = true>`: a continuous marginal CDF over rows, a
 //! continuous conditional CDF within the chosen row, each inverted analytically on the
@@ -66,7 +66,7 @@ fn binary_search(mut start: usize, mut end: usize, pred: impl Fn(usize) -> bool)
 
 impl<const D: usize> Marginal2D<D> {
     /// `data` holds `Π param_values[i].len()` slices of `h × w` values.
-    /// `normalize`: scale each slice to integrate to 1 over [0,1]²; `sampling`: build the
+    /// `normalize`: scale each slice to integrate to 1 over \[0,1\]²; `sampling`: build the
     /// CDFs needed by `sample`/`invert`.
     ///
     /// Panics if sizes are inconsistent (callers validate the file first).
@@ -179,7 +179,7 @@ impl<const D: usize> Marginal2D<D> {
         c
     }
 
-    /// Interpolated (normalised, if requested) density at `pos` ∈ [0,1]².
+    /// Interpolated (normalised, if requested) density at `pos` ∈ \[0,1\]².
     #[inline]
     pub fn eval(&self, pos: Vec2, param: &[f32; D]) -> f32 {
         let c = self.corners(param);
@@ -196,7 +196,7 @@ impl<const D: usize> Marginal2D<D> {
         lerp(lerp(v00, v10, fx), lerp(v01, v11, fx), fy)
     }
 
-    /// Map a uniform sample on [0,1]² to the density; returns the point and its density.
+    /// Map a uniform sample on \[0,1\]² to the density; returns the point and its density.
     #[inline]
     pub fn sample(&self, u: Vec2, param: &[f32; D]) -> (Vec2, f32) {
         let c = self.corners(param);

@@ -69,9 +69,14 @@ pub trait Intersector: Send + Sync {
     /// `hits[i] = intersect(&rays[i])` for every ray (`hits` at least as long as `rays`); a
     /// backend may trace coherent rays (a pixel's camera rays) together.
     fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
-        for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
-            *hit = self.intersect(ray);
-        }
+        intersect_each(self, rays, hits);
+    }
+}
+
+/// `intersect_packet` one ray at a time.
+fn intersect_each<I: Intersector + ?Sized>(accel: &I, rays: &[Ray], hits: &mut [Option<Hit>]) {
+    for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
+        *hit = accel.intersect(ray);
     }
 }
 
@@ -1655,9 +1660,7 @@ impl Intersector for Bvh {
                 return;
             }
         }
-        for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
-            *hit = self.intersect(ray);
-        }
+        intersect_each(self, rays, hits);
     }
 }
 

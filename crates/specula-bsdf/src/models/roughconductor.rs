@@ -46,18 +46,8 @@ impl BsdfModel for RoughConductor {
     }
 
     #[inline]
-    fn eval(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return Spectrum::ZERO;
-        }
-        let h = (wi + wo).normalize();
-        let distr = self.distr(sp);
-        let d = distr.eval(h);
-        if d == 0.0 {
-            return Spectrum::ZERO;
-        }
-        let g = distr.g(wi, wo, h);
-        self.fresnel(sp, wi.dot(h)) * (d * g / (4.0 * wi.z * wo.z))
+    fn eval(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
+        self.eval_pdf(ctx, sp, wi, wo).0
     }
 
     #[inline]
@@ -73,7 +63,8 @@ impl BsdfModel for RoughConductor {
         self.distr(sp).pdf(wi, m) / (4.0 * dwo)
     }
 
-    /// `eval` and `pdf` sharing the half vector, D and G1(wi) (the same values as apart).
+    /// The value and the pdf, sharing the half vector, D and G1(wi) (`eval` is its value;
+    /// `pdf` alone skips the Fresnel term).
     #[inline]
     fn eval_pdf(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
         if wi.z <= 0.0 || wo.z <= 0.0 {
@@ -82,15 +73,11 @@ impl BsdfModel for RoughConductor {
         let h = (wi + wo).normalize();
         let distr = self.distr(sp);
         let d = distr.eval(h);
-        let (dwi, dwo) = (wi.dot(h), wo.dot(h));
         if d == 0.0 {
-            let pdf = if dwi <= 0.0 || dwo <= 0.0 {
-                0.0
-            } else {
-                distr.pdf(wi, h) / (4.0 * dwo)
-            };
-            return (Spectrum::ZERO, pdf);
+            // no microfacet there: nothing reflected, nor sampled
+            return (Spectrum::ZERO, 0.0);
         }
+        let (dwi, dwo) = (wi.dot(h), wo.dot(h));
         let g1_i = distr.smith_g1(wi, h);
         let g = g1_i * distr.smith_g1(wo, h);
         let value = self.fresnel(sp, dwi) * (d * g / (4.0 * wi.z * wo.z));

@@ -182,25 +182,8 @@ impl BsdfModel for RoughPlastic {
         LobeFlags::GLOSSY_REFLECTION | LobeFlags::DIFFUSE_REFLECTION
     }
 
-    fn eval(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
-        let (ci, co) = (wi.z, wo.z);
-        if ci <= 0.0 || co <= 0.0 {
-            return Spectrum::ZERO;
-        }
-        let distr = self.distr();
-        let h = (wi + wo).normalize();
-        let d = distr.eval(h);
-        let f = self.fresnel.eval(wi.dot(h), self.eta).r;
-        let g = distr.g(wi, wo, h);
-        let spec = self.specular_reflectance.eval(sp) * (f * d * g / (4.0 * ci * co));
-        let (t_i, t_o) = (self.transmittance(ci), self.transmittance(co));
-        let rho = self.diffuse_reflectance.eval(sp);
-        let denom = if self.nonlinear {
-            1.0 - rho * self.internal_reflectance
-        } else {
-            Spectrum::splat(1.0 - self.internal_reflectance)
-        };
-        spec + rho / denom * (FRAC_1_PI / (self.eta * self.eta) * t_i * t_o)
+    fn eval(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
+        self.eval_pdf(ctx, sp, wi, wo).0
     }
 
     fn pdf(&self, _: &BsdfContext, _: &ShadingPoint, wi: Vec3, wo: Vec3) -> f32 {
@@ -219,8 +202,8 @@ impl BsdfModel for RoughPlastic {
         ps * spec + pd * warp::square_to_cosine_hemisphere_pdf(wo)
     }
 
-    /// `eval` and `pdf` sharing the half vector, D, G1(wi) and the coat's transmittance
-    /// (the same arithmetic as the two apart, so the same values).
+    /// The value and the pdf, sharing the half vector, D, G1(wi) and the coat's transmittance
+    /// (`eval` is its value; `pdf` alone skips the value's Fresnel and G1(wo)).
     fn eval_pdf(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
         let (ci, co) = (wi.z, wo.z);
         if ci <= 0.0 || co <= 0.0 {

@@ -919,7 +919,14 @@ mod x86 {
             );
             let zm = _mm_movemask_ps(zeros);
             if zm != 0 {
-                (u, v, w) = exact_edges(zm, [ax, ay, bx, by, cx, cy], [u, v, w]);
+                let mut e = [[0f32; 4]; 9];
+                for (k, x) in [ax, ay, bx, by, cx, cy, u, v, w].iter().enumerate() {
+                    _mm_storeu_ps(e[k].as_mut_ptr(), *x);
+                }
+                exact_edges(zm, &mut e);
+                u = _mm_loadu_ps(e[6].as_ptr());
+                v = _mm_loadu_ps(e[7].as_ptr());
+                w = _mm_loadu_ps(e[8].as_ptr());
             }
             // some edge function negative and some positive: the ray passes outside
             let neg = _mm_cmplt_ps(_mm_min_ps(_mm_min_ps(u, v), w), zero);
@@ -1010,7 +1017,7 @@ mod x86 {
                 for (k, x) in [ax, ay, bx, by, cx, cy, u, v, w].iter().enumerate() {
                     _mm256_storeu_ps(e[k].as_mut_ptr(), *x);
                 }
-                exact_edges8(zm, &mut e);
+                exact_edges(zm, &mut e);
                 u = _mm256_loadu_ps(e[6].as_ptr());
                 v = _mm256_loadu_ps(e[7].as_ptr());
                 w = _mm256_loadu_ps(e[8].as_ptr());
@@ -1042,13 +1049,13 @@ mod x86 {
         }
     }
 
-    /// `e` = (ax, ay, bx, by, cx, cy, u, v, w) per lane: recomputes u, v, w of the lanes in
-    /// `lanes` in double precision.
+    /// `e` = (ax, ay, bx, by, cx, cy, u, v, w) per lane (4 for SSE2, 8 for AVX2): recomputes
+    /// u, v, w of the lanes in `lanes` in double precision.
     #[cold]
     #[inline(never)]
     #[allow(clippy::needless_range_loop)]
-    fn exact_edges8(lanes: i32, e: &mut [[f32; 8]; 9]) {
-        for lane in 0..8 {
+    fn exact_edges<const N: usize>(lanes: i32, e: &mut [[f32; N]; 9]) {
+        for lane in 0..N {
             if lanes & (1 << lane) != 0 {
                 let (u, v, w) = edge_functions_f64(
                     e[0][lane], e[1][lane], e[2][lane], e[3][lane], e[4][lane], e[5][lane],
@@ -1056,37 +1063,6 @@ mod x86 {
                 (e[6][lane], e[7][lane], e[8][lane]) = (u, v, w);
             }
         }
-    }
-
-    /// Recomputes the edge functions of the lanes in `lanes` in double precision.
-    #[cold]
-    #[inline(never)]
-    unsafe fn exact_edges(
-        lanes: i32,
-        e: [__m128; 6],
-        uvw: [__m128; 3],
-    ) -> (__m128, __m128, __m128) {
-        let mut s = [[0f32; 4]; 6];
-        for (k, v) in e.iter().enumerate() {
-            _mm_storeu_ps(s[k].as_mut_ptr(), *v);
-        }
-        let mut r = [[0f32; 4]; 3];
-        for (k, v) in uvw.iter().enumerate() {
-            _mm_storeu_ps(r[k].as_mut_ptr(), *v);
-        }
-        for lane in 0..4 {
-            if lanes & (1 << lane) != 0 {
-                let (u, v, w) = edge_functions_f64(
-                    s[0][lane], s[1][lane], s[2][lane], s[3][lane], s[4][lane], s[5][lane],
-                );
-                (r[0][lane], r[1][lane], r[2][lane]) = (u, v, w);
-            }
-        }
-        (
-            _mm_loadu_ps(r[0].as_ptr()),
-            _mm_loadu_ps(r[1].as_ptr()),
-            _mm_loadu_ps(r[2].as_ptr()),
-        )
     }
 
     impl Bvh {
@@ -1955,17 +1931,10 @@ mod tests {
         let ico = load_ply(&asset("icosphere.ply")).unwrap();
         let g = Geometry::mesh(ico.clone(), Mat4::IDENTITY, false, false).unwrap();
         let geoms = [g];
-        let bvh = Bvh::build(&geoms);
-        // From the centre of the closed mesh every ray must hit it.
-        let mut rng = Rng(99);
-        for _ in 0..20000 {
-            let ray = Ray::new(Vec3::new(0.01, -0.02, 0.015), rng.dir());
-            assert!(bvh.intersect(&ray).is_some(), "escaped: {ray:?}");
-        }
-        // Rays from outside through every vertex and every edge midpoint.
         let Geometry::Mesh(m) = &geoms[0] else {
             unreachable!()
         };
+        // Rays from outside through every vertex and every edge midpoint.
         let mut targets: Vec<Vec3> = m.positions.clone();
         for tri in m.indices.iter().take(3000) {
             for k in 0..3 {
@@ -1974,13 +1943,24 @@ mod tests {
                 targets.push((a + b) * 0.5);
             }
         }
-        for (i, t) in targets.iter().enumerate() {
-            let o = *t * 3.0 + Vec3::new(0.3, 0.7, -0.2) * ((i % 7) as f32 * 0.1);
-            let ray = Ray::new(o, (*t - o).normalize());
-            let h = bvh
-                .intersect(&ray)
-                .unwrap_or_else(|| panic!("missed target {i}"));
-            assert!(h.t <= (*t - o).length() * (1.0 + 1e-5));
+        // every implementation of the triangle test (their exact edge fallbacks included)
+        for isa in Isa::available() {
+            let mut bvh = Bvh::build(&geoms);
+            bvh.set_isa(isa);
+            // From the centre of the closed mesh every ray must hit it.
+            let mut rng = Rng(99);
+            for _ in 0..20000 {
+                let ray = Ray::new(Vec3::new(0.01, -0.02, 0.015), rng.dir());
+                assert!(bvh.intersect(&ray).is_some(), "{isa:?} escaped: {ray:?}");
+            }
+            for (i, t) in targets.iter().enumerate() {
+                let o = *t * 3.0 + Vec3::new(0.3, 0.7, -0.2) * ((i % 7) as f32 * 0.1);
+                let ray = Ray::new(o, (*t - o).normalize());
+                let h = bvh
+                    .intersect(&ray)
+                    .unwrap_or_else(|| panic!("{isa:?} missed target {i}"));
+                assert!(h.t <= (*t - o).length() * (1.0 + 1e-5));
+            }
         }
     }
 

@@ -239,22 +239,10 @@ fn smith_masking_projects_microsurface_onto_macrosurface() {
     }
 }
 
+/// `../shared/data/<name>` as text; `None` (skip) when absent, except under CI.
 fn shared_data(name: &str) -> Option<String> {
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(name);
-    match std::fs::read_to_string(&p) {
-        Ok(s) => Some(s),
-        Err(e) => {
-            assert!(
-                std::env::var("CI").as_deref() != Ok("true"),
-                "CI needs {}: {e}",
-                p.display()
-            );
-            eprintln!("skipping: {} not found", p.display());
-            None
-        }
-    }
+    let p = specula_testdata::shared(&format!("data/{name}"))?;
+    Some(std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display())))
 }
 
 /// The numbers following `"key":` in a small JSON file (enough for the flat data files).

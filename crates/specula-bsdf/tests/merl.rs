@@ -17,18 +17,13 @@ use specula_bsdf::check::{self, stats};
 use specula_bsdf::measured::merl::{self, Merl, MerlError};
 use specula_bsdf::rng::Pcg32;
 use specula_bsdf::{parse_spec, Bsdf, BsdfContext, BsdfModel, ShadingPoint, Spectrum};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::OnceLock;
 use std::time::Instant;
 
-const COPPER: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../../shared/data/merl/mitsuba_rough_copper.binary"
-);
-const PLASTIC: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../../shared/data/merl/mitsuba_rough_plastic.binary"
-);
+/// Under `../shared`.
+const COPPER: &str = "data/merl/mitsuba_rough_copper.binary";
+const PLASTIC: &str = "data/merl/mitsuba_rough_plastic.binary";
 const COPPER_SPEC: &str = "roughconductor material=Cu alpha=0.2 distribution=ggx";
 const PLASTIC_SPEC: &str =
     "roughplastic distribution=ggx alpha=0.1 diffuse_reflectance=0.6,0.15,0.1";
@@ -50,18 +45,9 @@ fn shared(path: &'static str) -> Option<&'static Merl> {
         &PLASTIC_CELL
     };
     cell.get_or_init(|| {
-        let p = Path::new(path);
-        if !p.exists() {
-            assert!(
-                std::env::var("CI").as_deref() != Ok("true"),
-                "CI needs {}",
-                p.display()
-            );
-            eprintln!("skipping: {} not found", p.display());
-            return None;
-        }
+        let p = specula_testdata::shared(path)?;
         let t = Instant::now();
-        let m = Merl::read(p).unwrap_or_else(|e| panic!("{e}"));
+        let m = Merl::read(&p).unwrap_or_else(|e| panic!("{e}"));
         println!(
             "read + sampler construction of {}: {:.3} s",
             p.file_name().unwrap().to_string_lossy(),
@@ -478,7 +464,8 @@ fn write_read_round_trip_is_exact() {
     // the shared files too, byte for byte
     for p in [COPPER, PLASTIC] {
         if let Some(m) = shared(p) {
-            assert!(m.to_bytes() == std::fs::read(p).unwrap(), "{p}");
+            let file = specula_testdata::root().join(p);
+            assert!(m.to_bytes() == std::fs::read(file).unwrap(), "{p}");
         }
     }
 }

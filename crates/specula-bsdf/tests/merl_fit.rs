@@ -23,32 +23,17 @@ use specula_bsdf::measured::fit::{self, Family, FitOptions, FitParams, Metric};
 use specula_bsdf::measured::merl::Merl;
 use specula_bsdf::microfacet::MicrofacetType;
 use specula_bsdf::parse_spec;
-use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
-const COPPER: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../../shared/data/merl/mitsuba_rough_copper.binary"
-);
-const PLASTIC: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../../shared/data/merl/mitsuba_rough_plastic.binary"
-);
+/// Under `../shared`.
+const COPPER: &str = "data/merl/mitsuba_rough_copper.binary";
+const PLASTIC: &str = "data/merl/mitsuba_rough_plastic.binary";
 
 /// A shared table; `None` (skip) when the data is absent, except under CI where that fails.
 fn shared(path: &str) -> Option<Merl> {
-    let p = Path::new(path);
-    if !p.exists() {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "CI needs {}",
-            p.display()
-        );
-        eprintln!("skipping: {} not found", p.display());
-        return None;
-    }
-    Some(Merl::read(p).unwrap_or_else(|e| panic!("{e}")))
+    let p = specula_testdata::shared(path)?;
+    Some(Merl::read(&p).unwrap_or_else(|e| panic!("{e}")))
 }
 
 fn rel(a: f64, b: f64) -> f64 {

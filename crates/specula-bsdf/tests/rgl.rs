@@ -2,7 +2,7 @@
 //! corrupted copies), agreement of `eval`/`pdf`/`sample` with Mitsuba 3's `measured` plugin,
 //! and the statistical checks of the sampler.
 //!
-//! The data lives in /work/shared/data/rgl; when it is missing the tests are skipped, unless
+//! The data lives in `../shared/data/rgl` (beside the repository); when it is missing the tests are skipped, unless
 //! `CI=true`, where they fail.
 
 use glam::{Vec2, Vec3};
@@ -19,16 +19,10 @@ const FILES: [&str; 4] = [
     "cg_sunflower_rgb",
 ];
 
+/// `../shared/data/rgl`; `None` (skip) when absent, except under CI.
 fn data_dir() -> Option<PathBuf> {
-    let dir = PathBuf::from("/work/shared/data/rgl");
-    if dir.join("paper_white_rgb.bsdf").exists() {
-        return Some(dir);
-    }
-    if std::env::var("CI").is_ok_and(|v| v == "true") {
-        panic!("RGL data missing at {} (CI=true)", dir.display());
-    }
-    eprintln!("skipping: {} not found", dir.display());
-    None
+    let file = specula_testdata::shared("data/rgl/paper_white_rgb.bsdf")?;
+    file.parent().map(PathBuf::from)
 }
 
 fn load(dir: &std::path::Path, name: &str) -> Rgl {

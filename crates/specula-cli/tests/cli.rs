@@ -1,5 +1,6 @@
 //! End-to-end tests of the `specula` binary.
 
+use specula_testdata::shared;
 use std::process::{Command, Output};
 
 fn specula(args: &[&str]) -> Output {
@@ -155,25 +156,6 @@ fn brdf_list_names_every_plugin() {
         for p in *params {
             assert!(text.contains(p), "{name}.{p} missing");
         }
-    }
-}
-
-/// `../shared/<rel>` beside the repository, or None (with a note) when it is absent; under
-/// `CI=true` an absent file fails the test instead.
-fn shared(rel: &str) -> Option<std::path::PathBuf> {
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared")
-        .join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "CI needs {}",
-            p.display()
-        );
-        eprintln!("skipping: {} not found", p.display());
-        None
     }
 }
 

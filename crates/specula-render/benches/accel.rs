@@ -15,8 +15,6 @@
 //! implementations follow as `sse2/…` and `scalar/…` (`-- '^(closest|occluded)'` runs only
 //! the plain ones).
 
-use std::path::Path;
-
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
 use specula_bsdf::frame::Frame;
@@ -86,7 +84,7 @@ fn rays(scene: &Scene) -> Rays {
 }
 
 fn bench(c: &mut Criterion) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/meshes.xml");
+    let path = specula_testdata::root().join("scenes/meshes.xml");
     let scene = match Scene::load(&path, &[]) {
         Ok(s) => s,
         Err(e) => {

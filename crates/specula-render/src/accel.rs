@@ -1695,10 +1695,9 @@ mod tests {
     use super::*;
     use crate::mesh_io::{load_obj, load_ply};
     use glam::{Mat4, Vec2};
-    use std::path::Path;
 
     fn asset(name: &str) -> std::path::PathBuf {
-        Path::new("/work/shared/scenes/assets").join(name)
+        specula_testdata::root().join("scenes/assets").join(name)
     }
 
     struct Rng(u64);
@@ -1721,7 +1720,7 @@ mod tests {
         }
     }
 
-    /// The scene of /work/shared/scenes/meshes.xml plus analytic shapes.
+    /// The scene of ../shared/scenes/meshes.xml plus analytic shapes.
     fn scene() -> Vec<Geometry> {
         let knot = load_obj(&asset("torusknot.obj")).unwrap();
         let ico = load_ply(&asset("icosphere.ply")).unwrap();
@@ -2114,10 +2113,10 @@ mod tests {
     /// (they could differ only where two triangles are hit at exactly the same t).
     #[test]
     fn renders_identical_with_every_isa() {
-        let path = Path::new("/work/shared/scenes/meshes.xml");
+        let path = specula_testdata::root().join("scenes/meshes.xml");
         let overrides = [("resx", "48"), ("resy", "32"), ("spp", "4")]
             .map(|(k, v)| (k.to_string(), v.to_string()));
-        let mut scene = crate::scene::Scene::load(path, &overrides).unwrap();
+        let mut scene = crate::scene::Scene::load(&path, &overrides).unwrap();
         let opts = crate::render::RenderOptions {
             spp: 4,
             seed: 1,

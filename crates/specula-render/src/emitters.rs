@@ -538,10 +538,7 @@ mod tests {
     use std::f32::consts::FRAC_1_SQRT_2;
 
     fn asset(name: &str) -> Option<std::path::PathBuf> {
-        let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../../shared/scenes/assets")
-            .join(name);
-        p.exists().then_some(p)
+        specula_testdata::shared(&format!("scenes/assets/{name}"))
     }
 
     fn envmap(name: &str, scale: f32, to_world: Mat4) -> Option<Emitter> {
@@ -930,8 +927,7 @@ mod tests {
     fn node(body: &str) -> Result<Emitter> {
         let text = format!("<scene version=\"3.0.0\">\n{body}\n</scene>\n");
         let root = crate::xml::parse_scene_str(&text, "test.xml", Path::new("."), &[])?;
-        let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes");
-        Emitter::from_node(&root.children[0], &assets)
+        Emitter::from_node(&root.children[0], &specula_testdata::root().join("scenes"))
     }
 
     #[test]

@@ -731,7 +731,7 @@ mod tests {
     use super::*;
     use crate::accel::{Bvh, Intersector};
     use crate::mesh_io::{load_obj, load_ply};
-    use std::path::{Path, PathBuf};
+    use std::path::PathBuf;
 
     struct Case {
         o: [f32; 3],
@@ -2330,7 +2330,7 @@ end_header
     }
 
     fn asset(name: &str) -> PathBuf {
-        Path::new("/work/shared/scenes/assets").join(name)
+        specula_testdata::root().join("scenes/assets").join(name)
     }
 
     fn rot(axis: [f32; 3], deg: f32) -> Mat4 {

@@ -346,10 +346,9 @@ mod tests {
 
     #[test]
     fn reads_shared_assets() {
-        let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/assets");
-        if !assets.exists() {
+        let Some(assets) = specula_testdata::shared("scenes/assets") else {
             return;
-        }
+        };
         let (img, srgb) = read_image(&assets.join("grid.png")).unwrap();
         assert!(srgb);
         assert_eq!((img.width, img.height, img.channels), (256, 256, 3));

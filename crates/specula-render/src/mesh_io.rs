@@ -739,7 +739,7 @@ mod tests {
     }
 
     fn assets() -> PathBuf {
-        PathBuf::from("/work/shared/scenes/assets")
+        specula_testdata::root().join("scenes/assets")
     }
 
     fn small_mesh() -> MeshData {

@@ -323,9 +323,7 @@ mod tests {
     use super::*;
 
     fn grid_path() -> Option<std::path::PathBuf> {
-        let p =
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/assets/grid.png");
-        p.exists().then_some(p)
+        specula_testdata::shared("scenes/assets/grid.png")
     }
 
     fn sp(u: f32, v: f32) -> ShadingPoint {

@@ -11,19 +11,10 @@ use specula_render::scene::Scene;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
+/// `../shared` when its scenes are there; `None` (skip) when absent, except under CI.
 fn shared() -> Option<PathBuf> {
-    let p = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared"));
-    if p.join("scenes").is_dir() {
-        Some(p)
-    } else {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "CI=true but {} is missing",
-            p.display()
-        );
-        eprintln!("skipping conformance: {} not found", p.display());
-        None
-    }
+    specula_testdata::shared("scenes")?;
+    Some(specula_testdata::root())
 }
 
 #[test]

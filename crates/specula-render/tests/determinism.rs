@@ -6,7 +6,6 @@ use specula_render::accel::Intersector;
 use specula_render::render::{render, RenderOptions};
 use specula_render::scene::Scene;
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 struct Counting;
@@ -30,19 +29,7 @@ unsafe impl GlobalAlloc for Counting {
 static GLOBAL: Counting = Counting;
 
 fn scene(name: &str, overrides: &[(&str, &str)]) -> Option<Scene> {
-    let p = PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/scenes"
-    ))
-    .join(name);
-    if !p.exists() {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "CI needs {}",
-            p.display()
-        );
-        return None;
-    }
+    let p = specula_testdata::shared(&format!("scenes/{name}"))?;
     let o: Vec<(String, String)> = overrides
         .iter()
         .map(|(a, b)| (a.to_string(), b.to_string()))

@@ -10,18 +10,10 @@ use specula_render::scene::Scene;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
+/// `../shared` when its MERL tables are there; `None` (skip) when absent, except under CI.
 fn shared() -> Option<PathBuf> {
-    let p = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared"));
-    if p.join("data/merl").is_dir() {
-        Some(p)
-    } else {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "CI=true but {} is missing",
-            p.display()
-        );
-        None
-    }
+    specula_testdata::shared("data/merl")?;
+    Some(specula_testdata::root())
 }
 
 /// The scene's text with its `<bsdf type="{kind}">…</bsdf>` block replaced by `replacement`.

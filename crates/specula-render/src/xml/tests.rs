@@ -60,18 +60,8 @@ fn to_world(ops: &str) -> Mat4 {
 // The repository's scenes
 
 fn shared_scenes() -> Option<Vec<PathBuf>> {
-    let dir = Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/scenes"
-    ));
-    if !dir.is_dir() {
-        if std::env::var("CI").as_deref() == Ok("true") {
-            panic!("{} is missing (required when CI=true)", dir.display());
-        }
-        eprintln!("skipping: {} is missing", dir.display());
-        return None;
-    }
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+    let dir = specula_testdata::shared("scenes")?;
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|e| e == "xml"))

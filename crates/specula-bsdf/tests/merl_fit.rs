@@ -55,20 +55,26 @@ fn report(name: &str, fits: &[fit::Fit]) {
     }
 }
 
+/// Fits `m` (which must succeed), prints the fits and the time taken.
+fn fit_and_report(name: &str, m: &Merl, options: FitOptions) -> Vec<fit::Fit> {
+    let t = Instant::now();
+    let fits = fit::fit(m, &options).unwrap();
+    report(name, &fits);
+    println!("{name}: fitted in {:.2} s", t.elapsed().as_secs_f64());
+    fits
+}
+
 #[test]
 fn copper_gives_back_alpha_and_f0() {
     let Some(m) = shared(COPPER) else { return };
-    let t = Instant::now();
-    let fits = fit::fit(
+    let fits = fit_and_report(
+        "copper",
         &m,
-        &FitOptions {
+        FitOptions {
             distribution: MicrofacetType::Ggx,
             ..Default::default()
         },
-    )
-    .unwrap();
-    report("copper", &fits);
-    println!("both families: {:.2} s", t.elapsed().as_secs_f64());
+    );
     let best = &fits[0];
     assert_eq!(best.family, Family::Conductor, "copper is a conductor");
     assert!(
@@ -102,17 +108,14 @@ fn copper_gives_back_alpha_and_f0() {
 #[test]
 fn plastic_gives_back_alpha_colour_and_ior() {
     let Some(m) = shared(PLASTIC) else { return };
-    let t = Instant::now();
-    let fits = fit::fit(
+    let fits = fit_and_report(
+        "plastic",
         &m,
-        &FitOptions {
+        FitOptions {
             distribution: MicrofacetType::Ggx,
             ..Default::default()
         },
-    )
-    .unwrap();
-    report("plastic", &fits);
-    println!("both families: {:.2} s", t.elapsed().as_secs_f64());
+    );
     let best = &fits[0];
     assert_eq!(best.family, Family::Plastic);
     assert!(rel(best.alpha as f64, 0.1) <= 0.03, "alpha {}", best.alpha);
@@ -152,16 +155,15 @@ fn synthetic_beckmann_gold_round_trip() {
     assert_eq!(last.load(Ordering::SeqCst), 90);
     assert!(Merl::measure(&truth).raw_table() == m.raw_table());
 
-    let fits = fit::fit(
+    let fits = fit_and_report(
+        "gold",
         &m,
-        &FitOptions {
+        FitOptions {
             distribution: MicrofacetType::Beckmann,
             family: Some(Family::Conductor),
             ..Default::default()
         },
-    )
-    .unwrap();
-    report("gold", &fits);
+    );
     let best = &fits[0];
     assert!(rel(best.alpha as f64, 0.3) <= 0.03, "alpha {}", best.alpha);
     assert!(best.quality.rel_rms < 1e-3, "{:?}", best.quality);
@@ -179,17 +181,16 @@ fn synthetic_plastic_under_the_log_metric() {
     )
     .unwrap();
     let m = Merl::measure(&truth).with_name("<plastic>");
-    let fits = fit::fit(
+    let fits = fit_and_report(
+        "log plastic",
         &m,
-        &FitOptions {
+        FitOptions {
             distribution: MicrofacetType::Ggx,
             metric: Metric::Log,
             family: Some(Family::Plastic),
             ..Default::default()
         },
-    )
-    .unwrap();
-    report("log plastic", &fits);
+    );
     let best = &fits[0];
     assert_eq!(best.quality.metric, Metric::Log);
     assert!(rel(best.alpha as f64, 0.3) <= 0.03, "alpha {}", best.alpha);

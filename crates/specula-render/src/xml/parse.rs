@@ -964,7 +964,11 @@ impl Parser {
         let rel = Path::new(filename);
         let mut candidates = vec![ctx.dir.join(rel)];
         if rel.is_relative() {
-            for dir in self.search_paths.iter().chain(std::iter::once(&self.main_dir)) {
+            for dir in self
+                .search_paths
+                .iter()
+                .chain(std::iter::once(&self.main_dir))
+            {
                 let alt = dir.join(rel);
                 if !candidates.contains(&alt) {
                     candidates.push(alt);

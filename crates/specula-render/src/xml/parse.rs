@@ -914,22 +914,28 @@ impl Parser {
         Ok(m)
     }
 
-    /// `<path value="dir"/>`: adds a folder to the file search path, as Mitsuba's parser does
-    /// (a relative folder is relative to the file that declares it; it must exist).
+    /// `<path value="dir"/>`: adds a folder to the file search path, as Mitsuba's parser does:
+    /// a relative folder is looked for relative to the file that declares it, then in the
+    /// search path (earlier `<path>`s, the main scene's folder); it must exist.
     fn add_search_path(&mut self, ctx: &FileCtx, e: &Elem) -> Result<()> {
         let value = e.req("value")?;
         let p = Path::new(value);
-        let dir = if p.is_absolute() {
-            p.to_path_buf()
+        let candidates: Vec<PathBuf> = if p.is_absolute() {
+            vec![p.to_path_buf()]
         } else {
-            ctx.dir.join(p)
+            std::iter::once(&ctx.dir)
+                .chain(self.search_paths.iter())
+                .chain(std::iter::once(&self.main_dir))
+                .map(|d| d.join(p))
+                .collect()
         };
-        if !dir.is_dir() {
+        let Some(dir) = candidates.iter().find(|c| c.is_dir()).cloned() else {
+            let looked: Vec<String> = candidates.iter().map(|c| c.display().to_string()).collect();
             return Err(e.err(format!(
-                "<path value=\"{value}\">: folder '{}' not found",
-                dir.display()
+                "<path value=\"{value}\">: folder not found (looked for {})",
+                looked.join(", ")
             )));
-        }
+        };
         let dir = std::path::absolute(&dir).unwrap_or(dir);
         self.search_paths.retain(|d| d != &dir);
         self.search_paths.insert(0, dir);

@@ -99,6 +99,25 @@ fn latest_search_path_wins_and_relative_to_declaring_file() {
 }
 
 #[test]
+fn search_path_in_an_include_falls_back_to_the_scene_folder() {
+    // Mitsuba's docs scenes: include/emitter_scene.xml says <path value="../../common"/>,
+    // which exists relative to the main scene's folder but not to the include's
+    let d = Dir::new("fallback");
+    d.write("common/m.obj", "v 0 0 0\n");
+    d.write(
+        "docs/scenes/include/inc.xml",
+        r#"<scene version="3.0.0"><path value="../../common"/>
+    <shape type="obj"><string name="filename" value="m.obj"/></shape></scene>"#,
+    );
+    let main = d.write(
+        "docs/scenes/main.xml",
+        r#"<scene version="3.0.0"><include filename="include/inc.xml"/></scene>"#,
+    );
+    let root = load_scene(&main, &[]).unwrap();
+    assert!(filename_of(&root.children[0]).ends_with("common/m.obj"));
+}
+
+#[test]
 fn missing_search_path_is_a_located_error() {
     let d = Dir::new("missing");
     let main = d.write(
@@ -107,7 +126,10 @@ fn missing_search_path_is_a_located_error() {
     );
     let e = load_scene(&main, &[]).unwrap_err().to_string();
     assert!(e.contains("main.xml:2:5"), "{e}");
-    assert!(e.contains("folder") && e.contains("nowhere"), "{e}");
+    assert!(
+        e.contains("folder not found") && e.contains("nowhere"),
+        "{e}"
+    );
     let e = load_scene(
         &d.write("bad.xml", "<scene version=\"3.0.0\"><path/></scene>"),
         &[],

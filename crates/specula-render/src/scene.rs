@@ -7,7 +7,7 @@ use crate::emitters::Emitter;
 use crate::film::{Film, RFilter};
 use crate::geometry::Geometry;
 use crate::texture::{Bitmap, Checkerboard};
-use crate::xml::{Node, PropValue};
+use crate::xml::{Node, PropValue, Usage};
 use glam::{Mat4, Vec3};
 use specula_bsdf::{build_bsdf, Bsdf, Props, Rgb, Texture, Value};
 use std::collections::HashMap;
@@ -662,7 +662,27 @@ impl Builder {
                 }
                 PropValue::Str(v) => Value::Str(v.clone()),
                 PropValue::Rgb(v) => Value::Rgb(Rgb(*v)),
-                PropValue::Spectrum(v) => Value::Float(*v as f64),
+                // a constant stays a number; anything else becomes RGB the way Mitsuba's
+                // plugins read it: IORs and roughness unbounded, the rest as reflectances
+                PropValue::Spectrum(s) => match s.as_constant() {
+                    Some(v) => Value::Float(v),
+                    None => {
+                        let usage = match p.name.as_str() {
+                            "eta" | "k" | "alpha" | "alpha_u" | "alpha_v" => Usage::Unbounded,
+                            _ => Usage::Reflectance,
+                        };
+                        let rgb = s.to_rgb(usage).map_err(|why| {
+                            SceneError::new(
+                                Some(p.loc.clone()),
+                                format!(
+                                    "parameter '{}' of bsdf '{}': {why}",
+                                    p.name, n.plugin_type
+                                ),
+                            )
+                        })?;
+                        Value::Rgb(Rgb(rgb))
+                    }
+                },
                 other => {
                     return Err(SceneError::new(
                         Some(p.loc.clone()),
@@ -817,7 +837,7 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
                             ),
                         ));
                     }
-                    let radiance = c.rgb("radiance", [1.0; 3])?;
+                    let radiance = c.emission_rgb("radiance", [1.0; 3])?;
                     c.check_unused(&["radiance"])?;
                     parts.lights.push(Light::Area {
                         shape: shape_index,

@@ -763,12 +763,16 @@ impl Builder {
         let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         let flip = n.bool("flip_normals", false)?;
         let geom = match n.plugin_type.as_str() {
-            "obj" | "ply" => {
+            "obj" | "ply" | "serialized" => {
                 let file = n.string_opt("filename")?.ok_or_else(|| SceneError::new(Some(n.loc.clone()), format!("{} needs 'filename'", n.plugin_type)))?;
                 let face_normals = n.bool("face_normals", false)?;
                 let path = self.resolve_from(&n.loc, &file);
-let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } else { crate::mesh_io::load_ply(&path) }
-                    .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
+let mut data = match n.plugin_type.as_str() {
+                    "obj" => crate::mesh_io::load_obj(&path),
+                    "ply" => crate::mesh_io::load_ply(&path),
+                    _ => crate::serialized::load_serialized(&path, n.int("shape_index", 0)?),
+                }
+                .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
                 // Mitsuba's OBJ loader flips v unless told not to (load_obj flips, as the default)
                 if n.plugin_type == "obj" && !n.bool("flip_tex_coords", true)? {
                     if let Some(uvs) = data.uvs.as_mut() {
@@ -777,10 +781,10 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
                         }
                     }
                 }
-                let valid: &[&str] = if n.plugin_type == "obj" {
-                    &["filename", "face_normals", "flip_normals", "to_world", "flip_tex_coords"]
-                } else {
-                    &["filename", "face_normals", "flip_normals", "to_world"]
+                let valid: &[&str] = match n.plugin_type.as_str() {
+                    "obj" => &["filename", "face_normals", "flip_normals", "to_world", "flip_tex_coords"],
+                    "ply" => &["filename", "face_normals", "flip_normals", "to_world"],
+                    _ => &["filename", "shape_index", "face_normals", "flip_normals", "to_world"],
                 };
                 n.check_unused(valid)?;
                 Geometry::mesh(data, to_world, face_normals, flip)

@@ -5,7 +5,7 @@ use crate::camera::{FovAxis, PerspectiveCamera};
 use crate::core::{Loc, Ray, Result, SceneError};
 use crate::emitters::Emitter;
 use crate::film::{Film, RFilter};
-use crate::geometry::Geometry;
+use crate::geometry::{Geometry, ShapeGroup};
 use crate::texture::{Bitmap, Checkerboard};
 use crate::xml::{Node, PropValue};
 use glam::{Mat4, Vec3};
@@ -64,6 +64,7 @@ impl Scene {
             ids: HashMap::new(),
             bsdf_ids: HashMap::new(),
             texture_ids: HashMap::new(),
+            groups: HashMap::new(),
         }
         .build(&root)
     }
@@ -82,6 +83,7 @@ impl Scene {
             ids: HashMap::new(),
             bsdf_ids: HashMap::new(),
             texture_ids: HashMap::new(),
+            groups: HashMap::new(),
         }
         .build(&root)
     }
@@ -173,6 +175,7 @@ fn find_and_build_bsdf(
         ids: HashMap::new(),
         bsdf_ids: HashMap::new(),
         texture_ids: HashMap::new(),
+        groups: HashMap::new(),
     };
     let mut last = None;
     for child in &root.children {
@@ -224,6 +227,8 @@ struct Builder {
     ids: HashMap<String, (String, Loc)>,
     bsdf_ids: HashMap<String, u32>,
     texture_ids: HashMap<String, Arc<dyn Texture>>,
+    /// `shapegroup`s by id, for `instance`s.
+    groups: HashMap<String, Arc<ShapeGroup>>,
 }
 
 struct Parts {
@@ -666,6 +671,11 @@ impl Builder {
     }
 
     fn shape(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        match n.plugin_type.as_str() {
+            "shapegroup" => return self.shapegroup(n, parts),
+            "instance" => return self.instance(n, parts),
+            _ => {}
+        }
         let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         let flip = n.bool("flip_normals", false)?;
         let geom = match n.plugin_type.as_str() {
@@ -705,6 +715,14 @@ let mut data = match n.plugin_type.as_str() {
                 n.check_unused(&["center", "radius", "to_world", "flip_normals"])?;
                 Geometry::sphere(center, radius, to_world, flip)
             }
+            "cylinder" => {
+                let p0 = n.point("p0", Vec3::ZERO)?;
+                let p1 = n.point("p1", Vec3::Z)?;
+                let radius = n.float("radius", 1.0)?;
+                n.check_unused(&["p0", "p1", "radius", "to_world", "flip_normals"])?;
+                Geometry::cylinder(p0, p1, radius, to_world, flip)
+                    .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?
+            }
             "rectangle" | "cube" | "disk" => {
                 n.check_unused(&["to_world", "flip_normals"])?;
                 match n.plugin_type.as_str() {
@@ -716,7 +734,7 @@ let mut data = match n.plugin_type.as_str() {
             other => {
                 return Err(SceneError::new(
                     Some(n.loc.clone()),
-                    format!("shape '{other}' is not supported (supported: obj, ply, sphere, rectangle, cube, disk)"),
+                    format!("shape '{other}' is not supported (supported: obj, ply, serialized, sphere, rectangle, cube, disk, cylinder, shapegroup, instance)"),
                 ))
             }
         };
@@ -779,6 +797,90 @@ let mut data = match n.plugin_type.as_str() {
         parts.geometry.push(geom);
         parts.shape_bsdf.push(bsdf);
         parts.shape_light.push(light);
+        Ok(())
+    }
+}
+
+impl Builder {
+    /// Mitsuba's `shapegroup`: builds its shapes (in the group's space, BSDFs in the scene's
+    /// list) and one BVH over them, kept under its id for `instance`s; nothing is rendered
+    /// until instanced.
+    fn shapegroup(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        n.check_unused(&[])?;
+        let mut gp = Parts {
+            geometry: vec![],
+            shape_bsdf: vec![],
+            shape_light: vec![],
+            bsdfs: std::mem::take(&mut parts.bsdfs),
+            lights: vec![],
+        };
+        let mut result = Ok(());
+        for c in &n.children {
+            result = self.group_member(c, &mut gp);
+            if result.is_err() {
+                break;
+            }
+        }
+        parts.bsdfs = std::mem::take(&mut gp.bsdfs);
+        result?;
+        let group = Arc::new(ShapeGroup::new(gp.geometry, gp.shape_bsdf));
+        if let Some(id) = &n.id {
+            self.groups.insert(id.clone(), group);
+        }
+        Ok(())
+    }
+
+    /// One nested element of a `shapegroup`: a shape without emitters (Mitsuba's errors).
+    fn group_member(&mut self, c: &Node, gp: &mut Parts) -> Result<()> {
+        let err = |m: &str| Err(SceneError::new(Some(c.loc.clone()), m));
+        if c.tag != "shape" {
+            return err(&format!(
+                "<{}> cannot be nested in a shapegroup (only shapes can)",
+                c.tag
+            ));
+        }
+        match c.plugin_type.as_str() {
+            "shapegroup" => return err("Nested ShapeGroup is not permitted"),
+            "instance" => return err("Nested instancing is not permitted"),
+            _ => {}
+        }
+        if c.children.iter().any(|e| e.tag == "emitter") {
+            return err("Instancing of emitters is not supported (a shape in a shapegroup cannot carry an emitter)");
+        }
+        self.shape(c, gp)
+    }
+
+    /// Mitsuba's `instance`: `<ref id=…>` to a shapegroup, placed by `to_world`. Adds one scene
+    /// shape per group shape (sharing the group's BVH; see `geometry`'s module docs).
+    fn instance(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        n.check_unused(&["to_world"])?;
+        let mut group = None;
+        for c in &n.children {
+            if c.tag != "ref" || group.is_some() {
+                return Err(SceneError::new(
+                    Some(c.loc.clone()),
+                    "Only a shapegroup can be specified in an instance (one <ref id=…/>)",
+                ));
+            }
+            match self.groups.get(c.id.as_deref().unwrap_or_default()) {
+                Some(g) => group = Some(g.clone()),
+                None => return Err(self.bad_ref(c, "shapegroup")),
+            }
+        }
+        let Some(group) = group else {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                "A reference to a 'shapegroup' must be specified (<ref id=…/>)",
+            ));
+        };
+        let slots = Geometry::instance(&group, to_world)
+            .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
+        for (g, &bsdf) in slots.into_iter().zip(&group.bsdfs) {
+            parts.geometry.push(g);
+            parts.shape_bsdf.push(bsdf);
+            parts.shape_light.push(None);
+        }
         Ok(())
     }
 }

@@ -2979,6 +2979,62 @@ end_header
             .is_none());
     }
 
+    /// 10⁴ instances of a 10⁴-triangle mesh: one group, shared. The scene BVH holds one
+    /// primitive per instance and no triangle; every slot shares the group's mesh and BVH.
+    /// (Memory, measured with `scripts/gen_instances_scene.py` and `/usr/bin/time -v`: see the
+    /// README.)
+    #[test]
+    fn ten_thousand_instances_share_one_group() {
+        // a 100 × 50 height field: 10⁴ triangles
+        let (nx, ny) = (101u32, 51u32);
+        let positions = (0..ny)
+            .flat_map(|j| (0..nx).map(move |i| (i, j)))
+            .map(|(i, j)| {
+                let (x, y) = (i as f32 / 100.0, j as f32 / 50.0);
+                Vec3::new(x, y, 0.05 * (9.0 * x).sin() * (7.0 * y).cos())
+            })
+            .collect();
+        let indices = (0..ny - 1)
+            .flat_map(|j| (0..nx - 1).map(move |i| (i, j)))
+            .flat_map(|(i, j)| {
+                let a = j * nx + i;
+                [[a, a + 1, a + nx], [a + 1, a + nx + 1, a + nx]]
+            })
+            .collect::<Vec<_>>();
+        assert_eq!(indices.len(), 10_000);
+        let data = MeshData {
+            positions,
+            normals: None,
+            uvs: None,
+            indices,
+        };
+        let mesh = Geometry::mesh(data, Mat4::IDENTITY, false, false).unwrap();
+        let group = Arc::new(ShapeGroup::new(vec![mesh], vec![0]));
+        let mut shapes = Vec::new();
+        for k in 0..10_000 {
+            let (i, j) = ((k % 100) as f32, (k / 100) as f32);
+            let m = tr([2.0 * i, 2.0 * j, 0.0]) * rot([0.0, 0.0, 1.0], k as f32);
+            shapes.extend(Geometry::instance(&group, m).unwrap());
+        }
+        let bvh = Bvh::build(&shapes);
+        assert_eq!(shapes.len(), 10_000);
+        assert_eq!(bvh.primitive_count(), 10_000);
+        // the slots and the scene BVH hold the only other references to the group
+        assert_eq!(Arc::strong_count(&group), 1 + 10_000 + 1);
+        // rays straight down onto every 97th instance hit it, at its own slot
+        for k in (0..10_000).step_by(97) {
+            let (i, j) = ((k % 100) as f32, (k / 100) as f32);
+            let m = tr([2.0 * i, 2.0 * j, 0.0]) * rot([0.0, 0.0, 1.0], k as f32);
+            let c = m.transform_point3(Vec3::new(0.5, 0.5, 0.0));
+            let ray = Ray::new(c + Vec3::new(0.0, 0.0, 5.0), -Vec3::Z);
+            let hit = bvh.intersect(&ray).expect("instance hit");
+            assert_eq!(hit.shape, k);
+            let sg = shapes[k as usize].surface(&ray, &hit);
+            assert!((sg.p - c).truncate().length() < 1e-3 && sg.n_geo.z > 0.9);
+            assert!(bvh.occluded(&ray));
+        }
+    }
+
     #[test]
     fn shapegroup_errors_are_mitsubas() {
         use crate::scene::Scene;

@@ -496,6 +496,59 @@ impl Geometry {
     }
 }
 
+impl Geometry {
+    /// For Mitsuba's `merge`: the key under which this shape may be concatenated with other
+    /// meshes — (has vertex normals, has texture coordinates, flip_normals) — or `None` for a
+    /// shape that is not a triangle mesh in Mitsuba (spheres, disks, cylinders, instances;
+    /// rectangles and cubes are meshes there too). A merged rectangle loses its analytic
+    /// sampling, which only an emitting rectangle uses, and emitters are never merged.
+    pub fn merge_key(&self) -> Option<(bool, bool, bool)> {
+        match self {
+            Geometry::Mesh(m) => Some((m.normals.is_some(), m.uvs.is_some(), m.flip_normals)),
+            _ => None,
+        }
+    }
+
+    /// Concatenates meshes that share a [`Geometry::merge_key`] into one mesh (vertices,
+    /// normals, texture coordinates and triangles in order). Errors if there are none, the
+    /// keys differ, or the result would exceed 2³² vertices.
+    pub fn merge_meshes(shapes: Vec<Geometry>) -> Result<Geometry> {
+        let key = shapes.first().and_then(Geometry::merge_key);
+        let Some((has_n, has_uv, flip)) = key else {
+            return Err(SceneError::new(None, "merge: no mesh to merge"));
+        };
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        let mut uvs = Vec::new();
+        let mut indices = Vec::new();
+        for g in shapes {
+            if g.merge_key() != key {
+                return Err(SceneError::new(None, "merge: meshes of different kinds"));
+            }
+            let Geometry::Mesh(m) = g else {
+                unreachable!("merge_key is Some for meshes only")
+            };
+            let base = u32::try_from(positions.len())
+                .ok()
+                .filter(|b| (*b as u64) + (m.positions.len() as u64) <= u32::MAX as u64)
+                .ok_or_else(|| {
+                    SceneError::new(None, "merge: more than 2^32 vertices in one merged mesh")
+                })?;
+            positions.extend_from_slice(&m.positions);
+            normals.extend(m.normals.into_iter().flatten());
+            uvs.extend(m.uvs.into_iter().flatten());
+            indices.extend(m.indices.iter().map(|t| t.map(|i| i + base)));
+        }
+        Ok(Geometry::Mesh(TriMesh::new(
+            positions,
+            has_n.then_some(normals),
+            has_uv.then_some(uvs),
+            indices,
+            flip,
+        )))
+    }
+}
+
 /// Angle-weighted vertex normals (Mitsuba's `Mesh::recompute_vertex_normals`).
 fn recompute_vertex_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
     let mut acc = vec![Vec3::ZERO; positions.len()];
@@ -3033,6 +3086,71 @@ end_header
             assert!((sg.p - c).truncate().length() < 1e-3 && sg.n_geo.z > 0.9);
             assert!(bvh.occluded(&ray));
         }
+    }
+
+    /// Mitsuba 3.9 merges the three diffuse meshes (two cubes and the rectangle: 26
+    /// triangles) and keeps the conductor cube, the emitting cube and the sphere apart: 4
+    /// shapes (checked with `mi.load_string` of the same shapes). The
+    /// image is that of the unmerged scene: every ray hits the same point with the same
+    /// normals and BSDF.
+    #[test]
+    fn merge_like_mitsuba() {
+        use crate::scene::{Light, Scene};
+        let shapes = r#"
+ <shape type="cube"><transform name="to_world"><translate x="3"/></transform><ref id="b"/></shape>
+ <shape type="cube"><transform name="to_world"><translate x="-3"/></transform><ref id="b"/></shape>
+ <shape type="cube"><transform name="to_world"><translate y="3"/></transform><bsdf type="conductor"/></shape>
+ <shape type="sphere"><ref id="b"/></shape>
+ <shape type="rectangle"><transform name="to_world"><translate z="5"/></transform><ref id="b"/></shape>
+ <shape type="cube"><transform name="to_world"><translate z="-3"/></transform><emitter type="area"/></shape>"#;
+        let scene = |body: &str| {
+            let text = format!(
+                r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/></sensor>
+<bsdf type="diffuse" id="b"/>{body}</scene>"#
+            );
+            Scene::from_xml_str(&text, "<t>", std::path::Path::new("."), &[]).unwrap()
+        };
+        let merged = scene(&format!(r#"<shape type="merge">{shapes}</shape>"#));
+        let plain = scene(shapes);
+        let counts: Vec<usize> = merged
+            .geometry
+            .iter()
+            .map(Geometry::primitive_count)
+            .collect();
+        assert_eq!(counts, [1, 12, 26, 12]);
+        assert_eq!(merged.lights.len(), 1);
+        let Light::Area { shape, .. } = &merged.lights[0] else {
+            panic!()
+        };
+        assert_eq!(merged.shape_light[*shape as usize], Some(0));
+        assert_eq!(merged.geometry[*shape as usize].area(), 24.0);
+        let mut rng = 1u64;
+        let mut hits = 0;
+        for _ in 0..2000 {
+            let o = Vec3::new(lcg(&mut rng), lcg(&mut rng), lcg(&mut rng)) * 16.0 - 8.0;
+            let d = Vec3::new(lcg(&mut rng), lcg(&mut rng), lcg(&mut rng)) * 8.0 - 4.0 - o;
+            let ray = Ray::new(o, d);
+            let (a, b) = (merged.intersect(&ray), plain.intersect(&ray));
+            assert_eq!(a.is_some(), b.is_some());
+            let (Some(a), Some(b)) = (a, b) else { continue };
+            hits += 1;
+            assert_eq!(a.t, b.t);
+            let sa = merged.geometry[a.shape as usize].surface(&ray, &a);
+            let sb = plain.geometry[b.shape as usize].surface(&ray, &b);
+            assert_eq!(
+                (sa.p, sa.n_geo, sa.sh_frame.n, sa.uv),
+                (sb.p, sb.n_geo, sb.sh_frame.n, sb.uv)
+            );
+            let name = |s: &Scene, h: &Hit| {
+                format!("{:?}", s.bsdfs[s.shape_bsdf[h.shape as usize] as usize])
+            };
+            assert_eq!(name(&merged, &a), name(&plain, &b));
+            assert_eq!(
+                merged.shape_light[a.shape as usize].is_some(),
+                plain.shape_light[b.shape as usize].is_some()
+            );
+        }
+        assert!(hits > 500, "{hits}");
     }
 
     #[test]

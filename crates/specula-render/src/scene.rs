@@ -5,7 +5,7 @@ use crate::camera::{Camera, FilmWindow};
 use crate::core::{Loc, Ray, Result, SceneError};
 use crate::emitters::Emitter;
 use crate::film::{Film, RFilter};
-use crate::geometry::Geometry;
+use crate::geometry::{Geometry, ShapeGroup};
 use crate::texture::{Bitmap, Checkerboard};
 use crate::xml::{Node, PropValue, Usage};
 use glam::{Mat4, Vec3};
@@ -152,6 +152,7 @@ impl Scene {
             ids: HashMap::new(),
             bsdf_ids: HashMap::new(),
             texture_ids: HashMap::new(),
+            groups: HashMap::new(),
         }
         .build(&root)
     }
@@ -170,6 +171,7 @@ impl Scene {
             ids: HashMap::new(),
             bsdf_ids: HashMap::new(),
             texture_ids: HashMap::new(),
+            groups: HashMap::new(),
         }
         .build(&root)
     }
@@ -261,6 +263,7 @@ fn find_and_build_bsdf(
         ids: HashMap::new(),
         bsdf_ids: HashMap::new(),
         texture_ids: HashMap::new(),
+        groups: HashMap::new(),
     };
     let mut last = None;
     for child in &root.children {
@@ -312,6 +315,8 @@ struct Builder {
     ids: HashMap<String, (String, Loc)>,
     bsdf_ids: HashMap<String, u32>,
     texture_ids: HashMap<String, Arc<dyn Texture>>,
+    /// `shapegroup`s by id, for `instance`s.
+    groups: HashMap<String, Arc<ShapeGroup>>,
 }
 
 struct Parts {
@@ -760,6 +765,12 @@ impl Builder {
     }
 
     fn shape(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        match n.plugin_type.as_str() {
+            "shapegroup" => return self.shapegroup(n, parts),
+            "instance" => return self.instance(n, parts),
+            "merge" => return self.merge(n, parts),
+            _ => {}
+        }
         let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         let flip = n.bool("flip_normals", false)?;
         let geom = match n.plugin_type.as_str() {
@@ -799,6 +810,14 @@ let mut data = match n.plugin_type.as_str() {
                 n.check_unused(&["center", "radius", "to_world", "flip_normals"])?;
                 Geometry::sphere(center, radius, to_world, flip)
             }
+            "cylinder" => {
+                let p0 = n.point("p0", Vec3::ZERO)?;
+                let p1 = n.point("p1", Vec3::Z)?;
+                let radius = n.float("radius", 1.0)?;
+                n.check_unused(&["p0", "p1", "radius", "to_world", "flip_normals"])?;
+                Geometry::cylinder(p0, p1, radius, to_world, flip)
+                    .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?
+            }
             "rectangle" | "cube" | "disk" => {
                 n.check_unused(&["to_world", "flip_normals"])?;
                 match n.plugin_type.as_str() {
@@ -810,7 +829,7 @@ let mut data = match n.plugin_type.as_str() {
             other => {
                 return Err(SceneError::new(
                     Some(n.loc.clone()),
-                    format!("shape '{other}' is not supported (supported: obj, ply, sphere, rectangle, cube, disk)"),
+                    format!("shape '{other}' is not supported (supported: obj, ply, serialized, sphere, rectangle, cube, disk, cylinder, shapegroup, instance, merge)"),
                 ))
             }
         };
@@ -873,6 +892,149 @@ let mut data = match n.plugin_type.as_str() {
         parts.geometry.push(geom);
         parts.shape_bsdf.push(bsdf);
         parts.shape_light.push(light);
+        Ok(())
+    }
+}
+
+impl Builder {
+    /// Mitsuba's `shapegroup`: builds its shapes (in the group's space, BSDFs in the scene's
+    /// list) and one BVH over them, kept under its id for `instance`s; nothing is rendered
+    /// until instanced.
+    fn shapegroup(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        n.check_unused(&[])?;
+        let mut gp = Parts {
+            geometry: vec![],
+            shape_bsdf: vec![],
+            shape_light: vec![],
+            bsdfs: std::mem::take(&mut parts.bsdfs),
+            lights: vec![],
+        };
+        let mut result = Ok(());
+        for c in &n.children {
+            result = self.group_member(c, &mut gp);
+            if result.is_err() {
+                break;
+            }
+        }
+        parts.bsdfs = std::mem::take(&mut gp.bsdfs);
+        result?;
+        if !gp.lights.is_empty() {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                "Instancing of emitters is not supported (a shape in a shapegroup cannot carry an emitter)",
+            ));
+        }
+        let group = Arc::new(ShapeGroup::new(gp.geometry, gp.shape_bsdf));
+        if let Some(id) = &n.id {
+            self.groups.insert(id.clone(), group);
+        }
+        Ok(())
+    }
+
+    /// One nested element of a `shapegroup`: a shape without emitters (Mitsuba's errors).
+    fn group_member(&mut self, c: &Node, gp: &mut Parts) -> Result<()> {
+        let err = |m: &str| Err(SceneError::new(Some(c.loc.clone()), m));
+        if c.tag != "shape" {
+            return err(&format!(
+                "<{}> cannot be nested in a shapegroup (only shapes can)",
+                c.tag
+            ));
+        }
+        match c.plugin_type.as_str() {
+            "shapegroup" => return err("Nested ShapeGroup is not permitted"),
+            "instance" => return err("Nested instancing is not permitted"),
+            _ => {}
+        }
+        if c.children.iter().any(|e| e.tag == "emitter") {
+            return err("Instancing of emitters is not supported (a shape in a shapegroup cannot carry an emitter)");
+        }
+        self.shape(c, gp)
+    }
+
+    /// Mitsuba's `merge` (3.5+): its nested shapes, with the triangle meshes that share a BSDF
+    /// (and have no emitter, and the same normal / texture-coordinate layout and
+    /// `flip_normals`) concatenated into one mesh each; other shapes are kept as they are.
+    /// As in Mitsuba the kept shapes come first, then the merged meshes. Same image as
+    /// without `merge`; fewer, larger meshes.
+    fn merge(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        n.check_unused(&[])?;
+        let start = parts.geometry.len();
+        for c in &n.children {
+            if c.tag != "shape" || c.plugin_type == "shapegroup" {
+                return Err(SceneError::new(
+                    Some(c.loc.clone()),
+                    format!(
+                        "<{} type=\"{}\"> cannot be nested in a merge (only shapes can; shapegroups belong at the top level)",
+                        c.tag, c.plugin_type
+                    ),
+                ));
+            }
+            self.shape(c, parts)?;
+        }
+        let geometry: Vec<Geometry> = parts.geometry.drain(start..).collect();
+        let bsdfs: Vec<u32> = parts.shape_bsdf.drain(start..).collect();
+        let lights: Vec<Option<u32>> = parts.shape_light.drain(start..).collect();
+        // (bsdf, layout) → meshes, in order of first appearance
+        let mut groups: Vec<((u32, (bool, bool, bool)), Vec<Geometry>)> = Vec::new();
+        for ((g, bsdf), light) in geometry.into_iter().zip(bsdfs).zip(lights) {
+            match (light, g.merge_key()) {
+                (None, Some(k)) => match groups.iter_mut().find(|(key, _)| *key == (bsdf, k)) {
+                    Some((_, list)) => list.push(g),
+                    None => groups.push(((bsdf, k), vec![g])),
+                },
+                _ => {
+                    if let Some(li) = light {
+                        if let Light::Area { shape, .. } = &mut parts.lights[li as usize] {
+                            *shape = parts.geometry.len() as u32;
+                        }
+                    }
+                    parts.geometry.push(g);
+                    parts.shape_bsdf.push(bsdf);
+                    parts.shape_light.push(light);
+                }
+            }
+        }
+        for ((bsdf, _), list) in groups {
+            let merged = Geometry::merge_meshes(list)
+                .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
+            parts.geometry.push(merged);
+            parts.shape_bsdf.push(bsdf);
+            parts.shape_light.push(None);
+        }
+        Ok(())
+    }
+
+    /// Mitsuba's `instance`: `<ref id=…>` to a shapegroup, placed by `to_world`. Adds one scene
+    /// shape per group shape (sharing the group's BVH; see `geometry`'s module docs).
+    fn instance(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        n.check_unused(&["to_world"])?;
+        let mut group = None;
+        for c in &n.children {
+            if c.tag != "ref" || group.is_some() {
+                return Err(SceneError::new(
+                    Some(c.loc.clone()),
+                    "Only a shapegroup can be specified in an instance (one <ref id=…/>)",
+                ));
+            }
+            match self.groups.get(c.id.as_deref().unwrap_or_default()) {
+                Some(g) => group = Some(g.clone()),
+                None => return Err(self.bad_ref(c, "shapegroup")),
+            }
+        }
+        let Some(group) = group else {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                "A reference to a 'shapegroup' must be specified (<ref id=…/>)",
+            ));
+        };
+        let slots = Geometry::instance(&group, to_world)
+            .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
+        for (g, &bsdf) in slots.into_iter().zip(&group.bsdfs) {
+            parts.geometry.push(g);
+            parts.shape_bsdf.push(bsdf);
+            parts.shape_light.push(None);
+        }
         Ok(())
     }
 }

@@ -1124,7 +1124,7 @@ fn spectrum_plugin(n: &Node) -> Result<Spectrum> {
                      {temperature}"
                 )));
             }
-            if !(lo < hi) {
+            if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
                 return Err(n.error(format!(
                     "spectrum 'blackbody': wavelength_min ({lo}) must be below wavelength_max \
                      ({hi})"

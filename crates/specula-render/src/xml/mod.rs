@@ -22,6 +22,9 @@ mod transform;
 #[cfg(test)]
 mod tests;
 
+#[cfg(test)]
+mod resolver_tests;
+
 use crate::core::{Loc, Result, SceneError};
 use glam::{Mat4, Vec3};
 use std::cell::Cell;

@@ -143,3 +143,20 @@ fn scene_builder_reads_each_use_as_mitsuba() {
         "{radiance:?}"
     );
 }
+
+/// `filename=` resolves like other files: the declaring file's folder, then `<path>` folders.
+#[test]
+fn spd_files_resolve_through_search_paths() {
+    let dir = std::env::temp_dir().join(format!("specula-spectra-path-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("data")).unwrap();
+    std::fs::write(dir.join("data/flat.spd"), "# flat\n360 1\n830 1\n").unwrap();
+    let scene = r#"<scene version="3.0.0"><path value="data"/><shape type="x">
+  <spectrum name="c" filename="flat.spd"/></shape></scene>"#;
+    let root = parse_scene_str(scene, "s.xml", &dir, &[]).unwrap();
+    let c = root.children[0].rgb_opt("c").unwrap().unwrap();
+    // Mitsuba: a flat unit reflectance over 360-830 nm is (0.998985, 0.998874, 0.998802)
+    for (v, w) in c.iter().zip([0.9989853, 0.9988737, 0.9988016]) {
+        assert!((v - w).abs() <= 1e-5 * w, "{c:?}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -932,7 +932,8 @@ impl Parser {
     }
 
     /// A `<spectrum>`: `value="v"`, `value="λ:v, …"`, `filename="x.spd"` (resolved like an
-    /// `<include>`: against the file's directory, then the main scene's), or a spectrum plugin
+    /// `<include>`: against the file's directory, the `<path>` folders, then the main
+    /// scene's), or a spectrum plugin
     /// `<spectrum type="…">` with nested parameters (see [`super::spectrum`]).
     fn spectrum(&mut self, ctx: &FileCtx, xml: roxmltree::Node, e: &Elem) -> Result<Spectrum> {
         if let Some(kind) = e.get("type") {
@@ -973,9 +974,15 @@ impl Parser {
                 let rel = Path::new(filename);
                 let mut candidates = vec![ctx.dir.join(rel)];
                 if rel.is_relative() {
-                    let alt = self.main_dir.join(rel);
-                    if !candidates.contains(&alt) {
-                        candidates.push(alt);
+                    for dir in self
+                        .search_paths
+                        .iter()
+                        .chain(std::iter::once(&self.main_dir))
+                    {
+                        let alt = dir.join(rel);
+                        if !candidates.contains(&alt) {
+                            candidates.push(alt);
+                        }
                     }
                 }
                 let Some(path) = candidates.iter().find(|p| p.is_file()) else {
@@ -1387,7 +1394,7 @@ fn spectrum_plugin(n: &Node) -> Result<Spectrum> {
                      {temperature}"
                 )));
             }
-            if !(lo < hi) {
+            if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
                 return Err(n.error(format!(
                     "spectrum 'blackbody': wavelength_min ({lo}) must be below wavelength_max \
                      ({hi})"

@@ -160,6 +160,11 @@ pub trait Texture: Send + Sync + fmt::Debug {
     }
     /// Average over the texture (used to balance lobe sampling probabilities).
     fn mean(&self) -> Spectrum;
+    /// Resolution (width, height) of an image texture; (1, 1) for others (Mitsuba's
+    /// `Texture::resolution`, which sets e.g. a `projector`'s aspect ratio).
+    fn resolution(&self) -> (usize, usize) {
+        (1, 1)
+    }
 }
 
 /// A colour parameter: a constant or a texture, looked up per shading point.

@@ -3,7 +3,7 @@
 use crate::accel::{Bvh, Intersector};
 use crate::camera::{Camera, FilmWindow};
 use crate::core::{Loc, Ray, Result, SceneError};
-use crate::emitters::Emitter;
+use crate::emitters::{Emitter, NamedTexture};
 use crate::film::{Film, RFilter};
 use crate::geometry::{Geometry, ShapeGroup};
 use crate::texture::{Bitmap, Checkerboard};
@@ -31,9 +31,66 @@ pub enum Light {
     /// Mitsuba's `area` emitter on shape `shape`, emitting `radiance` from its front side.
     Area {
         shape: u32,
-        radiance: Rgb,
+        radiance: AreaRadiance,
     },
     Other(Emitter),
+}
+
+/// The `radiance` of Mitsuba's `area` emitter: a colour, or a texture looked up at the surface
+/// point's uv (a nested `<texture name="radiance">` or a `<ref name="radiance" id=…>`).
+///
+/// Light sampling picks points uniformly by area (spheres seen from outside: uniformly in
+/// the cone they subtend) whether or not the radiance is textured, and the MIS pdf is that
+/// of the same strategy. Mitsuba importance-samples a textured radiance's image instead
+/// (`Texture::sample_position`); both are unbiased, so images agree in expectation and
+/// differ only in noise.
+#[derive(Clone, Debug)]
+pub enum AreaRadiance {
+    Rgb(Rgb),
+    Texture(Arc<dyn Texture>),
+}
+
+impl From<Rgb> for AreaRadiance {
+    fn from(c: Rgb) -> Self {
+        AreaRadiance::Rgb(c)
+    }
+}
+
+impl AreaRadiance {
+    /// Radiance at a surface point with texture coordinates `uv` (position `p`).
+    #[inline]
+    pub fn eval(&self, uv: glam::Vec2, p: Vec3) -> Rgb {
+        match self {
+            AreaRadiance::Rgb(c) => *c,
+            AreaRadiance::Texture(t) => t.eval(&specula_bsdf::ShadingPoint { uv, p }),
+        }
+    }
+
+    /// Radiance at the point `o + t·d` where a ray meets the (analytic) shape `g`: the point's
+    /// uv is only computed for a textured radiance.
+    #[inline]
+    pub fn eval_along(&self, g: &Geometry, o: Vec3, d: Vec3, t: f32) -> Rgb {
+        match self {
+            AreaRadiance::Rgb(c) => *c,
+            AreaRadiance::Texture(_) => {
+                let ray = Ray {
+                    o,
+                    d,
+                    t_max: f32::INFINITY,
+                };
+                let hit = crate::core::Hit {
+                    t,
+                    shape: 0,
+                    prim: 0,
+                    u: 0.0,
+                    v: 0.0,
+                    vertices: None,
+                };
+                let si = g.surface(&ray, &hit);
+                self.eval(si.uv, si.p)
+            }
+        }
+    }
 }
 
 /// Changes applied to a scene file as it loads.
@@ -761,7 +818,73 @@ impl Builder {
     }
 
     fn emitter(&self, n: &Node) -> Result<Emitter> {
-        Emitter::from_node(n, &self.base)
+        let textures = self.emitter_textures(n)?;
+        Emitter::from_node_textured(n, &self.base, &textures)
+    }
+
+    /// The textures nested in (or referenced by) an emitter, with the parameter each sets;
+    /// other nested elements are left for the emitter to reject.
+    fn emitter_textures(&self, n: &Node) -> Result<Vec<NamedTexture>> {
+        let mut out = vec![];
+        for c in &n.children {
+            let texture = match c.tag.as_str() {
+                "texture" => self.texture(c)?,
+                "ref" => match c.id.as_ref().and_then(|id| self.texture_ids.get(id)) {
+                    Some(t) => t.clone(),
+                    None => return Err(self.bad_ref(c, "texture")),
+                },
+                _ => continue,
+            };
+            let name = c.name.clone().ok_or_else(|| {
+                c.error(format!(
+                    "a texture given to {} needs a 'name' (the parameter it sets)",
+                    n.describe()
+                ))
+            })?;
+            out.push(NamedTexture {
+                name,
+                texture,
+                loc: c.loc.clone(),
+            });
+        }
+        Ok(out)
+    }
+
+    /// Mitsuba's `area` emitter nested in a shape: its `radiance`, a colour or a texture.
+    fn area_radiance(&self, c: &Node) -> Result<AreaRadiance> {
+        let textures = self.emitter_textures(c)?;
+        if let Some(other) = c
+            .children
+            .iter()
+            .find(|x| x.tag != "texture" && x.tag != "ref")
+        {
+            return Err(other.error(format!(
+                "<{}> cannot be nested in an area emitter",
+                other.tag
+            )));
+        }
+        let radiance = match textures.as_slice() {
+            [] => AreaRadiance::Rgb(Rgb(c.emission_rgb("radiance", [1.0; 3])?)),
+            [t] if t.name == "radiance" && !c.has("radiance") => {
+                AreaRadiance::Texture(t.texture.clone())
+            }
+            [t, ..] => {
+                return Err(SceneError::new(
+                    Some(t.loc.clone()),
+                    format!(
+                        "an area emitter takes one texture, 'radiance' (got '{}'{})",
+                        t.name,
+                        if c.has("radiance") {
+                            " besides a radiance value"
+                        } else {
+                            ""
+                        }
+                    ),
+                ))
+            }
+        };
+        c.check_unused(&["radiance"])?;
+        Ok(radiance)
     }
 
     fn shape(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
@@ -860,11 +983,10 @@ let mut data = match n.plugin_type.as_str() {
                             ),
                         ));
                     }
-                    let radiance = c.emission_rgb("radiance", [1.0; 3])?;
-                    c.check_unused(&["radiance"])?;
+                    let radiance = self.area_radiance(c)?;
                     parts.lights.push(Light::Area {
                         shape: shape_index,
-                        radiance: Rgb(radiance),
+                        radiance,
                     });
                     light = Some(parts.lights.len() as u32 - 1);
                 }

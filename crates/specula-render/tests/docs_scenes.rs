@@ -220,14 +220,17 @@ fn docs_scenes_match_mitsuba_references() {
         if ok {
             conforming += 1;
         }
-        rows.push(format!(
+        let row = format!(
             "{name:<44} mean [{:.4} {:.4} {:.4}] (±{tol:.3})  block8 {b:.3e} (mitsuba {m_b:.3e})  relmse {r:.3e} (mitsuba {m_r:.3e})  {:.2}s  {}",
             mr[0],
             mr[1],
             mr[2],
             out.elapsed.as_secs_f64(),
             if ok { "ok" } else { "FAIL" }
-        ));
+        );
+        // printed as it goes (long runs), and again in the table at the end
+        eprintln!("{row}");
+        rows.push(row);
         if !ok {
             failures.push(format!(
                 "{name}: mean {mr:?} (±{tol}), block8 {b:.3e} ≤ {:.3e}?, relmse {r:.3e} ≤ {:.3e}?, invalid samples {}",

@@ -217,6 +217,11 @@ pub trait Texture: Send + Sync + fmt::Debug {
     fn channels(&self) -> usize {
         3
     }
+    /// The mesh attribute the texture reads (Mitsuba's `mesh_attribute`), so that a scene
+    /// loader can check the shapes it is used on.
+    fn mesh_attribute(&self) -> Option<&str> {
+        None
+    }
 }
 
 /// A colour parameter: a constant or a texture, looked up per shading point.

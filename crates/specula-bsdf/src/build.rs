@@ -1,11 +1,11 @@
 //! From plugin name and parameters to a model, with Mitsuba 3's parameter names and defaults.
 
 use crate::bsdf::{BsdfModel, FloatParam, ShadingPoint, SpectrumParam};
+use crate::fresnel::FresnelMode;
+use crate::microfacet::MicrofacetType;
 use crate::models::bumpmap::Bump;
 use crate::models::normalmap::NormalTexture;
 use crate::models::perturbed::Perturbed;
-use crate::fresnel::FresnelMode;
-use crate::microfacet::MicrofacetType;
 use crate::models::*;
 use crate::props::{BuildError, Props};
 use crate::spectrum::Spectrum;
@@ -106,7 +106,11 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
     ),
     (
         "normalmap",
-        &["normalmap", "flip_invalid_normals", "use_shadowing_function"],
+        &[
+            "normalmap",
+            "flip_invalid_normals",
+            "use_shadowing_function",
+        ],
     ),
     ("mask", &["opacity"]),
     ("null", &[]),

@@ -93,8 +93,12 @@ fn build(kind: &[&str], nested_spec: &str) -> (Bsdf, ShadingPoint<'static>) {
                 .unwrap();
             p.set("use_shadowing_function", Value::Bool(x[1] != 0.0), None)
                 .unwrap();
-            p.set("normalmap", Value::Rgb(Spectrum::new(x[2], x[3], x[4])), None)
-                .unwrap();
+            p.set(
+                "normalmap",
+                Value::Rgb(Spectrum::new(x[2], x[3], x[4])),
+                None,
+            )
+            .unwrap();
         }
         "mask" => {
             p.set("opacity", Value::Float(x[0] as f64), None).unwrap();
@@ -186,7 +190,10 @@ fn perturbed_models_agree_with_mitsuba() {
             other => panic!("unknown fixture line {other}"),
         }
     }
-    assert!(evals > 600 && samples > 250, "{evals} evals, {samples} samples");
+    assert!(
+        evals > 600 && samples > 250,
+        "{evals} evals, {samples} samples"
+    );
     assert!(
         failures.is_empty(),
         "{} of {} comparisons disagree:\n{}",

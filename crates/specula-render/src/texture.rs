@@ -316,6 +316,91 @@ impl Texture for Bitmap {
     fn mean(&self) -> Rgb {
         self.mean
     }
+
+    fn eval_1_grad(&self, sp: &ShadingPoint) -> Option<Vec2> {
+        Some(self.gradient(sp.uv))
+    }
+
+    fn channels(&self) -> usize {
+        self.channels
+    }
+}
+
+impl Bitmap {
+    /// The scalar value (luminance, or the value of 1-channel data) of texel (x, y).
+    #[inline]
+    fn texel_1(&self, x: usize, y: usize) -> f32 {
+        let c = self.texel(x, y);
+        if self.channels == 1 {
+            c.r()
+        } else {
+            c.luminance()
+        }
+    }
+
+    /// Mitsuba's `eval_1_grad`: the exact derivative in (u, v) of the bilinear interpolant of
+    /// the texels' scalar values (zero with nearest filtering). As in Mitsuba 3.9.1 the pixel
+    /// gradient is mapped through the transposed linear part of `to_uv` and *then* scaled by
+    /// the resolution (the same as the chain rule for square images and axis-aligned maps).
+    pub fn gradient(&self, uv: Vec2) -> Vec2 {
+        if self.filter == FilterType::Nearest {
+            return Vec2::ZERO;
+        }
+        let uv = apply_uv(&self.to_uv, uv);
+        let (w, h) = (self.width as i64, self.height as i64);
+        let px = uv.x * self.width as f32 - 0.5;
+        let py = uv.y * self.height as f32 - 0.5;
+        let (fx, fy) = (px.floor(), py.floor());
+        let (w1x, w1y) = (px - fx, py - fy);
+        let (w0x, w0y) = (1.0 - w1x, 1.0 - w1y);
+        let (ix, iy) = (fx as i64, fy as i64);
+        let x0 = self.wrap.wrap(ix, w);
+        let x1 = self.wrap.wrap(ix + 1, w);
+        let y0 = self.wrap.wrap(iy, h);
+        let y1 = self.wrap.wrap(iy + 1, h);
+        let (f00, f10) = (self.texel_1(x0, y0), self.texel_1(x1, y0));
+        let (f01, f11) = (self.texel_1(x0, y1), self.texel_1(x1, y1));
+        let dx = w0y * (f10 - f00) + w1y * (f11 - f01);
+        let dy = w0x * (f01 - f00) + w1x * (f11 - f10);
+        let m = &self.to_uv;
+        Vec2::new(
+            (m.x_axis.x * dx + m.x_axis.y * dy) * self.width as f32,
+            (m.y_axis.x * dx + m.y_axis.y * dy) * self.height as f32,
+        )
+    }
+}
+
+/// Mitsuba's `mesh_attribute`: a vertex or face attribute of the mesh that was hit (`name` =
+/// `vertex_…` or `face_…`, e.g. `vertex_color` from a PLY file's `r g b` properties), times
+/// `scale` (default 1). Vertex attributes are interpolated with the hit's barycentrics. The
+/// scene loader checks that every shape a material with this texture is attached to has the
+/// attribute with 1 or 3 channels (Mitsuba fails at render time). Deviations: `eval_1` of a
+/// 3-channel attribute is its luminance (Mitsuba refuses it); the `mean` (used only to balance
+/// lobe sampling) is `scale`·0.5, as the texture has no data of its own.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshAttributeTexture {
+    pub name: String,
+    pub scale: f32,
+}
+
+impl Texture for MeshAttributeTexture {
+    #[inline]
+    fn eval(&self, sp: &ShadingPoint) -> Rgb {
+        match sp.surface {
+            Some(s) => s
+                .attribute(&self.name, sp.prim, sp.bary)
+                .map_or(Rgb::ZERO, |v| v * self.scale),
+            None => Rgb::ZERO,
+        }
+    }
+
+    fn mean(&self) -> Rgb {
+        Rgb::splat(0.5 * self.scale)
+    }
+
+    fn mesh_attribute(&self) -> Option<&str> {
+        Some(&self.name)
+    }
 }
 
 #[cfg(test)]

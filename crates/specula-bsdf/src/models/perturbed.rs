@@ -80,8 +80,16 @@ impl<P: Perturbation> Perturbed<P> {
         };
         let s = Vec3::X - n * n.x;
         let inv_st = 1.0 / s.length_squared().sqrt();
-        let s = if inv_st.is_finite() { s * inv_st } else { Vec3::Y };
-        Frame { s, t: n.cross(s), n }
+        let s = if inv_st.is_finite() {
+            s * inv_st
+        } else {
+            Vec3::Y
+        };
+        Frame {
+            s,
+            t: n.cross(s),
+            n,
+        }
     }
 
     /// The shading point as the nested BSDF sees it (its geometry in the perturbed frame).
@@ -103,7 +111,6 @@ impl<P: Perturbation> Perturbed<P> {
             1.0
         }
     }
-
 }
 
 impl<P: Perturbation> BsdfModel for Perturbed<P> {
@@ -121,8 +128,7 @@ impl<P: Perturbation> BsdfModel for Perturbed<P> {
         if !(wo.z * pwo.z > 0.0) {
             return 0.0;
         }
-        self.nested
-            .pdf(ctx, &Self::nested_point(sp, &f), pwi, pwo)
+        self.nested.pdf(ctx, &Self::nested_point(sp, &f), pwi, pwo)
     }
     #[inline]
     fn eval_pdf(
@@ -175,7 +181,10 @@ mod tests {
     #[test]
     fn shadow_terminator_limits() {
         // unperturbed normal: no shadowing
-        assert_eq!(shadow_terminator(Vec3::Z, Vec3::new(0.9, 0.0, 0.1).normalize()), 1.0);
+        assert_eq!(
+            shadow_terminator(Vec3::Z, Vec3::new(0.9, 0.0, 0.1).normalize()),
+            1.0
+        );
         // perturbed normal: 1 at normal incidence, falling towards grazing
         let n = Vec3::new(0.5, 0.0, 0.8).normalize();
         assert!((shadow_terminator(n, Vec3::Z) - 1.0).abs() < 1e-6);

@@ -2716,6 +2716,7 @@ end_header
             normals: None,
             uvs: None,
             indices: vec![[0, 1, 2], [3, 4, 5]],
+            attributes: Vec::new(),
         };
         let g = Geometry::mesh(data, Mat4::IDENTITY, false, false).unwrap();
         assert!((g.area() - 4.0).abs() < 1e-6);
@@ -2743,6 +2744,7 @@ end_header
             normals: None,
             uvs: None,
             indices: vec![[0, 1, 3]],
+            attributes: Vec::new(),
         };
         let e = Geometry::mesh(data.clone(), Mat4::IDENTITY, false, false).unwrap_err();
         assert!(e.to_string().contains("vertex 3"), "{e}");

@@ -976,7 +976,60 @@ mod tests {
                 Vec2::new(0.0, 0.1),
             ]),
             indices: vec![[0, 1, 2], [0, 2, 3]],
+            attributes: Vec::new(),
         }
+    }
+
+    #[test]
+    fn ply_attributes_grouped_as_mitsuba() {
+        // Mitsuba 3.9.1 on this file lists: vertex_color [255, 128, 0, …] (uchar, not
+        // normalised), vertex_foo (x, y, z), vertex_bar (bar_0), vertex_baz_color (r, g, b);
+        // `lone` (no postfix) and q_1, q_2 (two fields) are ignored; face_color (color_0..2)
+        // and face_w (w_1).
+        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n\
+property float foo_x\nproperty float foo_y\nproperty float foo_z\nproperty float bar_0\n\
+property float baz_r\nproperty float baz_g\nproperty float baz_b\nproperty float lone\n\
+property float q_1\nproperty float q_2\nelement face 2\nproperty list uchar int vertex_indices\n\
+property float color_0\nproperty float color_1\nproperty float color_2\nproperty uchar w_1\n\
+end_header\n\
+0 0 0 255 128 0 1 2 3 0.5 0.1 0.2 0.3 7 1 2\n\
+1 0 0 0 255 64 4 5 6 0.25 0.4 0.5 0.6 8 3 4\n\
+0 1 0 10 20 30 7 8 9 0.125 0.7 0.8 0.9 9 5 6\n\
+3 0 1 2 0.3 0.6 0.9 128\n\
+4 0 1 2 1 0.1 0.2 0.4 7\n";
+        let dir = tmp_dir("ply_attributes");
+        let path = dir.join("attr.ply");
+        std::fs::write(&path, text).unwrap();
+        // the quad is fanned into two triangles, which share its face attributes
+        let d = load_ply(&path).unwrap();
+        assert_eq!(d.indices.len(), 3);
+        let get = |n: &str| {
+            d.attributes
+                .iter()
+                .find(|a| a.name == n)
+                .unwrap_or_else(|| panic!("{n}: {:?}", d.attributes))
+        };
+        assert_eq!(
+            get("vertex_color").data,
+            [255.0, 128.0, 0.0, 0.0, 255.0, 64.0, 10.0, 20.0, 30.0]
+        );
+        assert_eq!(get("vertex_foo").dim, 3);
+        assert_eq!(get("vertex_foo").data[3..6], [4.0, 5.0, 6.0]);
+        assert_eq!(get("vertex_bar").data, [0.5, 0.25, 0.125]);
+        assert_eq!(get("vertex_baz_color").data[6..], [0.7, 0.8, 0.9]);
+        assert_eq!(
+            get("face_color").data,
+            [0.3, 0.6, 0.9, 0.1, 0.2, 0.4, 0.1, 0.2, 0.4]
+        );
+        assert_eq!(get("face_w").data, [128.0, 7.0, 7.0]);
+        let names: Vec<&str> = d.attributes.iter().map(|a| a.name.as_str()).collect();
+        assert_eq!(names.len(), 6, "{names:?}");
+        assert!(d.positions.len() == 3 && d.validate("x").is_ok());
+        // binary round trip keeps positions; attribute lengths are validated
+        let mut bad = d.clone();
+        bad.attributes[0].data.pop();
+        assert!(bad.validate("bad").unwrap_err().contains("vertex_color"));
     }
 
     #[test]

@@ -1,13 +1,13 @@
 //! A renderable scene, assembled from a Mitsuba 3 XML plugin tree.
 
 use crate::accel::{Bvh, Intersector};
-use crate::camera::{FovAxis, PerspectiveCamera};
+use crate::camera::{Camera, FilmWindow};
 use crate::core::{Loc, Ray, Result, SceneError};
 use crate::emitters::Emitter;
 use crate::film::{Film, RFilter};
 use crate::geometry::Geometry;
 use crate::texture::{Bitmap, Checkerboard, MeshAttributeTexture};
-use crate::xml::{Node, PropValue};
+use crate::xml::{Node, PropValue, Usage};
 use glam::{Mat4, Vec3};
 use specula_bsdf::{build_bsdf, Bsdf, Props, Rgb, Texture, Value};
 use std::collections::HashMap;
@@ -36,6 +36,84 @@ pub enum Light {
     Other(Emitter),
 }
 
+/// Changes applied to a scene file as it loads.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Render at this film size (width, height) with the same field of view: exactly as if
+    /// every film's `width` and `height` were edited in the file and its crop window reset to
+    /// the full film (a sensor without a film gets an `hdrfilm` of this size).
+    pub size: Option<(usize, usize)>,
+}
+
+impl LoadOptions {
+    /// Applies the options to the parsed scene tree.
+    fn apply(&self, root: &mut Node) -> Result<()> {
+        let Some((w, h)) = self.size else {
+            return Ok(());
+        };
+        if w == 0 || h == 0 || w > 1 << 16 || h > 1 << 16 {
+            return Err(SceneError::new(
+                None,
+                format!("invalid film size {w}×{h} (each side must lie in [1, 65536])"),
+            ));
+        }
+        fn film_props(film: &mut Node, w: usize, h: usize) {
+            film.props.retain(|p| {
+                !matches!(
+                    p.name.as_str(),
+                    "width"
+                        | "height"
+                        | "crop_offset_x"
+                        | "crop_offset_y"
+                        | "crop_width"
+                        | "crop_height"
+                )
+            });
+            for (name, v) in [("width", w), ("height", h)] {
+                let loc = film.loc.clone();
+                film.props
+                    .push(crate::xml::Prop::new(name, PropValue::Int(v as i64), loc));
+            }
+        }
+        // ids of films declared apart from their sensor (reached through <ref>)
+        fn film_ids(n: &Node, ids: &mut Vec<String>) {
+            if n.tag == "film" {
+                ids.extend(n.id.clone());
+            }
+            n.children.iter().for_each(|c| film_ids(c, ids));
+        }
+        let mut ids = vec![];
+        film_ids(root, &mut ids);
+        fn walk(n: &mut Node, w: usize, h: usize, ids: &[String]) {
+            if n.tag == "film" {
+                film_props(n, w, h);
+            }
+            let has_film = n.children.iter().any(|c| {
+                c.tag == "film"
+                    || (c.tag == "ref" && c.id.as_ref().is_some_and(|i| ids.contains(i)))
+            });
+            if n.tag == "sensor" && !has_film {
+                let mut film = Node {
+                    tag: "film".into(),
+                    plugin_type: "hdrfilm".into(),
+                    id: None,
+                    name: None,
+                    props: vec![],
+                    children: vec![],
+                    loc: n.loc.clone(),
+                };
+                film_props(&mut film, w, h);
+                n.children.push(film);
+            }
+            for c in &mut n.children {
+                walk(c, w, h, ids);
+            }
+        }
+        walk(root, w, h, &ids);
+        Ok(())
+    }
+}
+
 pub struct Scene {
     pub geometry: Vec<Geometry>,
     /// BSDF of each shape.
@@ -47,7 +125,7 @@ pub struct Scene {
     /// Indices of infinitely distant lights (environment, constant) seen by escaping rays.
     pub infinite_lights: Vec<u32>,
     pub accel: Bvh,
-    pub camera: PerspectiveCamera,
+    pub camera: Camera,
     pub film: Film,
     pub spp: u32,
     pub seed: u64,
@@ -57,7 +135,17 @@ pub struct Scene {
 impl Scene {
     /// Load a Mitsuba 3 scene file; `overrides` are `-D name=value` pairs.
     pub fn load(path: &Path, overrides: &[(String, String)]) -> Result<Scene> {
-        let root = crate::xml::load_scene(path, overrides)?;
+        Self::load_with(path, overrides, &LoadOptions::default())
+    }
+
+    /// [`Scene::load`] with [`LoadOptions`] (e.g. another film size).
+    pub fn load_with(
+        path: &Path,
+        overrides: &[(String, String)],
+        opts: &LoadOptions,
+    ) -> Result<Scene> {
+        let mut root = crate::xml::load_scene(path, overrides)?;
+        opts.apply(&mut root)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Builder {
             base,
@@ -285,7 +373,7 @@ impl Builder {
             rr_depth: 5,
             hide_emitters: false,
         };
-        let mut sensor: Option<(PerspectiveCamera, Film, u32, u64)> = None;
+        let mut sensor: Option<(Camera, Film, u32, u64)> = None;
         for child in &root.children {
             if let Some(id) = &child.id {
                 if child.tag != "ref" {
@@ -391,13 +479,14 @@ impl Builder {
         Ok(s)
     }
 
-    fn sensor(&self, n: &Node) -> Result<(PerspectiveCamera, Film, u32, u64)> {
-        if n.plugin_type != "perspective" {
+    fn sensor(&self, n: &Node) -> Result<(Camera, Film, u32, u64)> {
+        if !crate::camera::SENSORS.contains(&n.plugin_type.as_str()) {
             return Err(SceneError::new(
                 Some(n.loc.clone()),
                 format!(
-                    "sensor '{}' is not supported (supported: perspective)",
-                    n.plugin_type
+                    "sensor '{}' is not supported (supported: {})",
+                    n.plugin_type,
+                    crate::camera::SENSORS.join(", ")
                 ),
             ));
         }
@@ -455,36 +544,19 @@ impl Builder {
                 }
             }
         }
-        let film = film.unwrap_or(Film::new(768, 576, RFilter::default_gaussian()));
-        let axis_name = n.string("fov_axis", "x")?;
-        let axis = FovAxis::parse(&axis_name).ok_or_else(|| {
-            SceneError::new(
-                Some(n.loc.clone()),
-                format!("fov_axis '{axis_name}' is invalid (x, y, diagonal, smaller, larger)"),
-            )
-        })?;
-        if n.has("focal_length") {
-            return Err(SceneError::new(
-                Some(n.loc.clone()),
-                "focal_length is not supported; give fov",
-            ));
-        }
-        let fov = n.float("fov", 0.0)?;
-        if !(fov > 0.0 && fov < 180.0) {
-            return Err(SceneError::new(
-                Some(n.loc.clone()),
-                format!("fov must lie in (0, 180) degrees, got {fov}"),
-            ));
-        }
-        let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
-        let near = n.float("near_clip", 1e-2)?;
-        let far = n.float("far_clip", 1e4)?;
-        n.check_unused(&["fov", "fov_axis", "to_world", "near_clip", "far_clip"])?;
-        let cam = PerspectiveCamera::new(to_world, fov, axis, film.width, film.height, near, far);
+        // Mitsuba's default film: hdrfilm, 768 × 576
+        let (film, window) = match film {
+            Some(f) => f,
+            None => (
+                Film::new(768, 576, RFilter::default_gaussian()),
+                FilmWindow::full(768, 576),
+            ),
+        };
+        let cam = Camera::from_node(n, &window)?;
         Ok((cam, film, spp, seed))
     }
 
-    fn film(&self, n: &Node) -> Result<Film> {
+    fn film(&self, n: &Node) -> Result<(Film, FilmWindow)> {
         if n.plugin_type != "hdrfilm" {
             return Err(SceneError::new(
                 Some(n.loc.clone()),
@@ -521,6 +593,7 @@ impl Builder {
             }
             filter = self.rfilter(c)?;
         }
+        let window = FilmWindow::from_node(n, w as usize, h as usize)?;
         n.check_unused(&[
             "width",
             "height",
@@ -531,7 +604,8 @@ impl Builder {
             "banner",
             "sample_border",
         ])?;
-        Ok(Film::new(w as usize, h as usize, filter))
+        let (cw, ch) = window.crop_size;
+        Ok((Film::new(cw, ch, filter), window))
     }
 
     fn rfilter(&self, n: &Node) -> Result<RFilter> {
@@ -620,7 +694,27 @@ impl Builder {
                 }
                 PropValue::Str(v) => Value::Str(v.clone()),
                 PropValue::Rgb(v) => Value::Rgb(Rgb(*v)),
-                PropValue::Spectrum(v) => Value::Float(*v as f64),
+                // a constant stays a number; anything else becomes RGB the way Mitsuba's
+                // plugins read it: IORs and roughness unbounded, the rest as reflectances
+                PropValue::Spectrum(s) => match s.as_constant() {
+                    Some(v) => Value::Float(v),
+                    None => {
+                        let usage = match p.name.as_str() {
+                            "eta" | "k" | "alpha" | "alpha_u" | "alpha_v" => Usage::Unbounded,
+                            _ => Usage::Reflectance,
+                        };
+                        let rgb = s.to_rgb(usage).map_err(|why| {
+                            SceneError::new(
+                                Some(p.loc.clone()),
+                                format!(
+                                    "parameter '{}' of bsdf '{}': {why}",
+                                    p.name, n.plugin_type
+                                ),
+                            )
+                        })?;
+                        Value::Rgb(Rgb(rgb))
+                    }
+                },
                 other => {
                     return Err(SceneError::new(
                         Some(p.loc.clone()),
@@ -759,12 +853,16 @@ impl Builder {
         let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         let flip = n.bool("flip_normals", false)?;
         let geom = match n.plugin_type.as_str() {
-            "obj" | "ply" => {
+            "obj" | "ply" | "serialized" => {
                 let file = n.string_opt("filename")?.ok_or_else(|| SceneError::new(Some(n.loc.clone()), format!("{} needs 'filename'", n.plugin_type)))?;
                 let face_normals = n.bool("face_normals", false)?;
                 let path = self.resolve_from(&n.loc, &file);
-let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } else { crate::mesh_io::load_ply(&path) }
-                    .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
+let mut data = match n.plugin_type.as_str() {
+                    "obj" => crate::mesh_io::load_obj(&path),
+                    "ply" => crate::mesh_io::load_ply(&path),
+                    _ => crate::serialized::load_serialized(&path, n.int("shape_index", 0)?),
+                }
+                .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
                 // Mitsuba's OBJ loader flips v unless told not to (load_obj flips, as the default)
                 if n.plugin_type == "obj" && !n.bool("flip_tex_coords", true)? {
                     if let Some(uvs) = data.uvs.as_mut() {
@@ -773,10 +871,10 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
                         }
                     }
                 }
-                let valid: &[&str] = if n.plugin_type == "obj" {
-                    &["filename", "face_normals", "flip_normals", "to_world", "flip_tex_coords"]
-                } else {
-                    &["filename", "face_normals", "flip_normals", "to_world"]
+                let valid: &[&str] = match n.plugin_type.as_str() {
+                    "obj" => &["filename", "face_normals", "flip_normals", "to_world", "flip_tex_coords"],
+                    "ply" => &["filename", "face_normals", "flip_normals", "to_world"],
+                    _ => &["filename", "shape_index", "face_normals", "flip_normals", "to_world"],
                 };
                 n.check_unused(valid)?;
                 Geometry::mesh(data, to_world, face_normals, flip)
@@ -834,7 +932,7 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
                             ),
                         ));
                     }
-                    let radiance = c.rgb("radiance", [1.0; 3])?;
+                    let radiance = c.emission_rgb("radiance", [1.0; 3])?;
                     c.check_unused(&["radiance"])?;
                     parts.lights.push(Light::Area {
                         shape: shape_index,

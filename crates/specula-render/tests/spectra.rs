@@ -25,7 +25,9 @@ fn spectra_convert_like_mitsuba() {
             "emission" => Usage::Emission,
             u => panic!("unknown usage {u}"),
         };
-        let want: Vec<f64> = (0..3).map(|_| it.next().unwrap().parse().unwrap()).collect();
+        let want: Vec<f64> = (0..3)
+            .map(|_| it.next().unwrap().parse().unwrap())
+            .collect();
         let element = it.next().unwrap();
         let scene = format!(r#"<scene version="3.0.0"><shape type="x">{element}</shape></scene>"#);
         let root = parse_scene_str(&scene, "fixture.xml", &dir, &[])

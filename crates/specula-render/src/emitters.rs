@@ -668,7 +668,10 @@ impl SpotLight {
         if let Some(t) = &self.texture {
             let k = 0.5 / (d.z * self.uv_factor);
             let uv = Vec2::new(0.5 + d.x * k, 0.5 + d.y * k);
-            v = v * t.eval(&ShadingPoint { uv, p: Vec3::ZERO });
+            v = v * t.eval(&ShadingPoint {
+                uv,
+                ..Default::default()
+            });
         }
         if cos_t >= self.cos_beam {
             v
@@ -765,7 +768,10 @@ impl ProjectorLight {
             return None;
         }
         let e = match &self.texture {
-            Some(t) => t.eval(&ShadingPoint { uv, p: Vec3::ZERO }),
+            Some(t) => t.eval(&ShadingPoint {
+                uv,
+                ..Default::default()
+            }),
             None => self.irradiance,
         };
         let radiance = e * (PI * self.scale / (local.z * local.z * cos));

@@ -6,7 +6,7 @@ use crate::core::{Loc, Ray, Result, SceneError};
 use crate::emitters::{Emitter, NamedTexture};
 use crate::film::{Film, RFilter};
 use crate::geometry::{Geometry, ShapeGroup};
-use crate::texture::{Bitmap, Checkerboard};
+use crate::texture::{Bitmap, Checkerboard, MeshAttributeTexture};
 use crate::xml::{Node, PropValue, Usage};
 use glam::{Mat4, Vec3};
 use specula_bsdf::{build_bsdf, Bsdf, Props, Rgb, Texture, Value};
@@ -62,7 +62,11 @@ impl AreaRadiance {
     pub fn eval(&self, uv: glam::Vec2, p: Vec3) -> Rgb {
         match self {
             AreaRadiance::Rgb(c) => *c,
-            AreaRadiance::Texture(t) => t.eval(&specula_bsdf::ShadingPoint { uv, p }),
+            AreaRadiance::Texture(t) => t.eval(&specula_bsdf::ShadingPoint {
+                uv,
+                p,
+                ..Default::default()
+            }),
         }
     }
 
@@ -210,6 +214,7 @@ impl Scene {
             bsdf_ids: HashMap::new(),
             texture_ids: HashMap::new(),
             groups: HashMap::new(),
+            attr_uses: MeshAttrUses::default(),
         }
         .build(&root)
     }
@@ -229,6 +234,7 @@ impl Scene {
             bsdf_ids: HashMap::new(),
             texture_ids: HashMap::new(),
             groups: HashMap::new(),
+            attr_uses: MeshAttrUses::default(),
         }
         .build(&root)
     }
@@ -321,6 +327,7 @@ fn find_and_build_bsdf(
         bsdf_ids: HashMap::new(),
         texture_ids: HashMap::new(),
         groups: HashMap::new(),
+        attr_uses: MeshAttrUses::default(),
     };
     let mut last = None;
     for child in &root.children {
@@ -374,6 +381,17 @@ struct Builder {
     texture_ids: HashMap<String, Arc<dyn Texture>>,
     /// `shapegroup`s by id, for `instance`s.
     groups: HashMap<String, Arc<ShapeGroup>>,
+    attr_uses: MeshAttrUses,
+}
+
+/// The mesh attributes that materials read through `mesh_attribute` textures, checked against
+/// the shapes the materials are attached to.
+#[derive(Default)]
+struct MeshAttrUses {
+    /// Met while building the current BSDF: (attribute name, where the texture was given).
+    pending: std::cell::RefCell<Vec<(String, Loc)>>,
+    /// Per BSDF (index into the scene's list).
+    by_bsdf: HashMap<u32, Vec<(String, Loc)>>,
 }
 
 struct Parts {
@@ -441,6 +459,7 @@ impl Builder {
                 "bsdf" => {
                     let b = self.bsdf(child)?;
                     parts.bsdfs.push(b);
+                    self.file_mesh_attributes(parts.bsdfs.len() as u32 - 1);
                     if let Some(id) = &child.id {
                         self.bsdf_ids.insert(id.clone(), parts.bsdfs.len() as u32 - 1);
                     }
@@ -700,10 +719,27 @@ impl Builder {
                     .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
                 Arc::new(b)
             }
+            "mesh_attribute" => {
+                let name = n.string_opt("name")?.ok_or_else(|| {
+                    SceneError::new(
+                        Some(n.loc.clone()),
+                        "mesh_attribute needs 'name' (vertex_… or face_…)",
+                    )
+                })?;
+                if !(name.starts_with("vertex_") || name.starts_with("face_")) {
+                    return Err(SceneError::new(
+                        Some(n.loc.clone()),
+                        format!("invalid mesh attribute name '{name}': it must start with 'vertex_' or 'face_'"),
+                    ));
+                }
+                let scale = n.float("scale", 1.0)?;
+                n.check_unused(&["name", "scale"])?;
+                Arc::new(MeshAttributeTexture { name, scale })
+            }
             other => {
                 return Err(SceneError::new(
                     Some(n.loc.clone()),
-                    format!("texture '{other}' is not supported (supported: bitmap, checkerboard)"),
+                    format!("texture '{other}' is not supported (supported: bitmap, checkerboard, mesh_attribute)"),
                 ))
             }
         };
@@ -761,13 +797,18 @@ impl Builder {
         for c in &n.children {
             match c.tag.as_str() {
                 "texture" => {
-                    let name = c.name.clone().ok_or_else(|| {
-                        SceneError::new(
-                            Some(c.loc.clone()),
-                            "a texture nested in a bsdf needs a 'name' (the parameter it sets)",
-                        )
-                    })?;
+                    // bumpmap takes its one texture whatever its name (as Mitsuba)
+                    let name =
+                        match (&c.name, n.plugin_type.as_str()) {
+                            (Some(name), _) => name.clone(),
+                            (None, "bumpmap") => "(unnamed texture)".to_string(),
+                            (None, _) => return Err(SceneError::new(
+                                Some(c.loc.clone()),
+                                "a texture nested in a bsdf needs a 'name' (the parameter it sets)",
+                            )),
+                        };
                     let t = self.texture(c)?;
+                    self.note_mesh_attribute(&t, &c.loc);
                     props
                         .set(&name, Value::Texture(t), loc_str(&c.loc))
                         .map_err(bsdf_err)?;
@@ -779,6 +820,7 @@ impl Builder {
                 "ref" => {
                     let id = c.id.clone().unwrap_or_default();
                     if let Some(t) = self.texture_ids.get(&id) {
+                        self.note_mesh_attribute(t, &c.loc);
                         let name = c.name.clone().ok_or_else(|| {
                             SceneError::new(
                                 Some(c.loc.clone()),
@@ -801,6 +843,58 @@ impl Builder {
             }
         }
         build_bsdf(props).map_err(bsdf_err)
+    }
+
+    /// Remembers that the BSDF being built reads a mesh attribute (when `t` is a
+    /// `mesh_attribute` texture).
+    fn note_mesh_attribute(&self, t: &Arc<dyn Texture>, loc: &Loc) {
+        if let Some(name) = t.mesh_attribute() {
+            self.attr_uses
+                .pending
+                .borrow_mut()
+                .push((name.to_string(), loc.clone()));
+        }
+    }
+
+    /// Files the mesh attributes met while building BSDF `index` under it.
+    fn file_mesh_attributes(&mut self, index: u32) {
+        let uses = self.attr_uses.pending.take();
+        if !uses.is_empty() {
+            self.attr_uses
+                .by_bsdf
+                .entry(index)
+                .or_default()
+                .extend(uses);
+        }
+    }
+
+    /// Checks that shape `geom` (declared at `at`) has every attribute BSDF `bsdf` reads, with
+    /// 1 or 3 channels (Mitsuba fails at render time).
+    fn check_mesh_attributes(&self, bsdf: u32, geom: &Geometry, at: &Loc) -> Result<()> {
+        let Some(uses) = self.attr_uses.by_bsdf.get(&bsdf) else {
+            return Ok(());
+        };
+        for (name, loc) in uses {
+            let msg = match geom {
+                Geometry::Mesh(m) => match m.attribute(name) {
+                    Some(a) if a.dim == 1 || a.dim == 3 => continue,
+                    Some(a) => format!(
+                        "mesh_attribute '{name}': the attribute has {} channels (1 or 3 can be read)",
+                        a.dim
+                    ),
+                    None => {
+                        let have: Vec<&str> = m.attributes.iter().map(|a| a.name.as_str()).collect();
+                        format!(
+                            "mesh_attribute '{name}': the shape at {at} has no such attribute (it has: {})",
+                            if have.is_empty() { "none".to_string() } else { have.join(", ") }
+                        )
+                    }
+                },
+                _ => format!("mesh_attribute '{name}': the shape at {at} is not a mesh"),
+            };
+            return Err(SceneError::new(Some(loc.clone()), msg));
+        }
+        Ok(())
     }
 
     fn bad_ref(&self, c: &Node, want: &str) -> SceneError {
@@ -964,6 +1058,7 @@ let mut data = match n.plugin_type.as_str() {
                 "bsdf" => {
                     let b = self.bsdf(c)?;
                     parts.bsdfs.push(b);
+                    self.file_mesh_attributes(parts.bsdfs.len() as u32 - 1);
                     bsdf = Some(parts.bsdfs.len() as u32 - 1);
                 }
                 "ref" => {
@@ -1011,6 +1106,7 @@ let mut data = match n.plugin_type.as_str() {
                 parts.bsdfs.len() as u32 - 1
             }
         };
+        self.check_mesh_attributes(bsdf, &geom, &n.loc)?;
         parts.geometry.push(geom);
         parts.shape_bsdf.push(bsdf);
         parts.shape_light.push(light);

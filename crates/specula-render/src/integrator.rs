@@ -122,12 +122,16 @@ impl Scene {
         g.pdf_position() * dist2 / cos_l * self.light_select_pdf()
     }
 
-    fn sample_light(&self, x: Vec3, u_sel: f32, u: Vec2) -> Option<LightSample> {
+    /// Samples a light, then a direction towards it, from one 2D sample: `u.x` picks the
+    /// light and is rescaled to \[0, 1) for the direction (Mitsuba's sample reuse, which keeps
+    /// the 2D sample stratified over each light).
+    fn sample_light(&self, x: Vec3, mut u: Vec2) -> Option<LightSample> {
         let n = self.lights.len();
         if n == 0 {
             return None;
         }
-        let idx = ((u_sel * n as f32) as usize).min(n - 1);
+        let idx = ((u.x * n as f32) as usize).min(n - 1);
+        u.x = (u.x * n as f32 - idx as f32).clamp(0.0, crate::sampler::ONE_MINUS_EPS);
         let sel = self.light_select_pdf();
         match &self.lights[idx] {
             Light::Area { shape, radiance } => {
@@ -325,9 +329,8 @@ impl Scene {
 
             // next-event estimation
             if flags.intersects(specula_bsdf::LobeFlags::SMOOTH) {
-                let u_sel = rng.next_1d();
                 let u = rng.next_2d();
-                if let Some(ls) = self.sample_light(si.p, u_sel, u) {
+                if let Some(ls) = self.sample_light(si.p, u) {
                     let wo = si.sh_frame.to_local(ls.wi);
                     let (f, bsdf_pdf) = bsdf.eval_pdf(&ctx, &sp, wi, wo);
                     if !f.is_black() {
@@ -350,7 +353,6 @@ impl Scene {
                 }
             } else {
                 // keep the random sequence aligned regardless of the material
-                rng.next_1d();
                 rng.next_2d();
             }
 
@@ -675,12 +677,11 @@ impl Scene {
 
         // emitter sampling
         for _ in 0..ne {
-            let u_sel = rng.next_1d();
             let u = rng.next_2d();
             if !smooth {
                 continue;
             }
-            let Some(ls) = self.sample_light(si.p, u_sel, u) else {
+            let Some(ls) = self.sample_light(si.p, u) else {
                 continue;
             };
             let wo = si.sh_frame.to_local(ls.wi);

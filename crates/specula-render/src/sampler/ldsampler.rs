@@ -22,19 +22,45 @@ pub(super) fn resolution(spp: u32) -> u32 {
 }
 
 /// The second dimension of Sobol's sequence as a 32-bit fraction (generator matrix: each
-/// direction number is the previous one XOR itself shifted right by one).
+/// direction number is the previous one XOR itself shifted right by one), by bytes of `i`.
 #[inline]
-pub(super) fn sobol_2(mut i: u32) -> u32 {
-    let mut v = 1u32 << 31;
-    let mut r = 0u32;
-    while i != 0 {
-        if i & 1 != 0 {
-            r ^= v;
-        }
-        i >>= 1;
-        v ^= v >> 1;
+pub(super) fn sobol_2(i: u32) -> u32 {
+    SOBOL_2[0][(i & 255) as usize]
+        ^ SOBOL_2[1][((i >> 8) & 255) as usize]
+        ^ SOBOL_2[2][((i >> 16) & 255) as usize]
+        ^ SOBOL_2[3][(i >> 24) as usize]
+}
+
+/// `SOBOL_2[k][b]`: the contribution of byte k of the index when it equals b.
+static SOBOL_2: [[u32; 256]; 4] = sobol_2_tables();
+
+const fn sobol_2_tables() -> [[u32; 256]; 4] {
+    let mut v = [0u32; 32];
+    v[0] = 1 << 31;
+    let mut k = 1;
+    while k < 32 {
+        v[k] = v[k - 1] ^ (v[k - 1] >> 1);
+        k += 1;
     }
-    r
+    let mut t = [[0u32; 256]; 4];
+    let mut byte = 0;
+    while byte < 4 {
+        let mut b = 0;
+        while b < 256 {
+            let mut r = 0u32;
+            let mut bit = 0;
+            while bit < 8 {
+                if b >> bit & 1 != 0 {
+                    r ^= v[byte * 8 + bit];
+                }
+                bit += 1;
+            }
+            t[byte][b] = r;
+            b += 1;
+        }
+        byte += 1;
+    }
+    t
 }
 
 pub struct LowDiscrepancy {
@@ -96,6 +122,28 @@ mod tests {
     use super::super::tests::*;
     use super::super::SamplerKind;
     use super::*;
+
+    #[test]
+    fn sobol_tables_match_the_direction_numbers() {
+        let slow = |mut i: u32| {
+            let (mut v, mut r) = (1u32 << 31, 0u32);
+            while i != 0 {
+                if i & 1 != 0 {
+                    r ^= v;
+                }
+                i >>= 1;
+                v ^= v >> 1;
+            }
+            r
+        };
+        for i in [0u32, 1, 2, 3, 255, 256, 12345, 0xdead_beef, u32::MAX] {
+            assert_eq!(sobol_2(i), slow(i), "{i}");
+        }
+        // the first points: 1/2, 1/4, 3/4, …
+        assert_eq!(sobol_2(1), 1 << 31);
+        assert_eq!(sobol_2(2), 3 << 30);
+        assert_eq!(sobol_2(3), 1 << 30);
+    }
 
     #[test]
     fn every_dimension_is_a_0_m_2_net() {

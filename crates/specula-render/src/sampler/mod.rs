@@ -255,7 +255,7 @@ pub(crate) fn jitter_value(h: u64, sample: u32, dim: u32, axis: u32) -> f32 {
 }
 
 /// The largest f32 below 1.
-pub(crate) const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
+pub const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// A 32-bit fixed-point fraction as a float in \[0, 1).
 #[inline]

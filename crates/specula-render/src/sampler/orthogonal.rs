@@ -36,6 +36,8 @@ pub struct Orthogonal {
     jitter: bool,
     perm_seed: u32,
     sample: u32,
+    /// The current sample's row of the array (its index, permuted).
+    row: u32,
     dim: u32,
     /// per-pixel hash seed of the jitter
     jitter_seed: u64,
@@ -55,7 +57,7 @@ impl Orthogonal {
     #[inline]
     fn bose(&mut self, j: u32) -> f32 {
         let p = self.p;
-        let i = permute(self.sample, self.count, self.perm_seed);
+        let i = self.row;
         let (a0, a1) = (i / p, i % p);
         let col = |c: u32| -> u32 {
             match c {
@@ -77,7 +79,7 @@ impl Orthogonal {
     #[inline]
     fn bush(&mut self, j: u32) -> f32 {
         let p = self.p;
-        let i = permute(self.sample, self.rows, self.perm_seed);
+        let i = self.row;
         // the base-p digits of i are the coefficients of a polynomial, evaluated at j mod p
         let x = (j % p) as u64;
         let mut digits = i;
@@ -133,6 +135,7 @@ impl PixelSampler for Orthogonal {
             jitter: settings.jitter,
             perm_seed: 0,
             sample: 0,
+            row: 0,
             dim: 0,
             jitter_seed: 0,
         }
@@ -146,6 +149,8 @@ impl PixelSampler for Orthogonal {
     fn start_sample(&mut self, sample: u32, dimension: u32) {
         self.sample = sample % self.count;
         self.dim = dimension;
+        let rows = if self.strength == 2 { self.count } else { self.rows };
+        self.row = permute(self.sample, rows, self.perm_seed);
     }
 }
 

@@ -31,7 +31,9 @@ fn main() {
         .map(|s| s.parse().expect("--spp: numbers"))
         .collect();
     let scenes = arg(&args, "--scenes", "cbox,mat_rough_copper,veach_mis");
-    let seeds: u64 = arg(&args, "--seeds", "1").parse().expect("--seeds: a number");
+    let seeds: u64 = arg(&args, "--seeds", "1")
+        .parse()
+        .expect("--seeds: a number");
     let threads: usize = arg(&args, "--threads", "0").parse().expect("--threads");
     let Some(shared) = specula_testdata::shared("") else {
         eprintln!("../shared not found");
@@ -60,11 +62,7 @@ fn main() {
             for seed in 0..seeds {
                 let out = render(
                     scene,
-                    &RenderOptions {
-                        spp,
-                        seed,
-                        threads,
-                    },
+                    &RenderOptions { spp, seed, threads },
                     &AtomicBool::new(false),
                     &|_, _| {},
                 );
@@ -78,7 +76,10 @@ fn main() {
             (err, start.elapsed().as_secs_f64() / seeds as f64)
         };
         for &spp in &spps {
-            for kind in SamplerKind::NAMES.iter().map(|n| SamplerKind::parse(n).unwrap()) {
+            for kind in SamplerKind::NAMES
+                .iter()
+                .map(|n| SamplerKind::parse(n).unwrap())
+            {
                 let taken = SamplerSettings::new(kind, spp).sample_count(spp);
                 let (err, secs) = error(&mut scene, kind, spp);
                 if kind == SamplerKind::Independent {

@@ -225,10 +225,16 @@ pub fn write_exr_with_channels(
         if values.len() != n || ["R", "G", "B"].contains(&name.as_str()) {
             return Err(SceneError::file(
                 path,
-                format!("channel '{name}': bad name or {} values for {n} pixels", values.len()),
+                format!(
+                    "channel '{name}': bad name or {} values for {n} pixels",
+                    values.len()
+                ),
             ));
         }
-        list.push(AnyChannel::new(name.as_str(), FlatSamples::F32(values.clone())));
+        list.push(AnyChannel::new(
+            name.as_str(),
+            FlatSamples::F32(values.clone()),
+        ));
     }
     let channels = AnyChannels::sort(list.into_iter().collect());
     let layer = Layer::new(
@@ -343,14 +349,24 @@ mod tests {
         let p = tmp("aov.exr");
         write_exr_with_channels(&p, w, h, &rgb, &[("depth.y.T".into(), depth.clone())]).unwrap();
         let img = exr::prelude::read_first_flat_layer_from_file(&p.0).unwrap();
-        let names: Vec<String> =
-            img.layer_data.channel_data.list.iter().map(|c| c.name.to_string()).collect();
+        let names: Vec<String> = img
+            .layer_data
+            .channel_data
+            .list
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect();
         assert_eq!(names, ["B", "G", "R", "depth.y.T"]);
-        let d: Vec<f32> = img.layer_data.channel_data.list[3].sample_data.values_as_f32().collect();
+        let d: Vec<f32> = img.layer_data.channel_data.list[3]
+            .sample_data
+            .values_as_f32()
+            .collect();
         assert_eq!(d, depth);
         let (back, _) = read_image(&p).unwrap();
         assert_eq!(back.data, rgb);
-        assert!(write_exr_with_channels(&p, w, h, &rgb, &[("R".into(), vec![0.0; w * h])]).is_err());
+        assert!(
+            write_exr_with_channels(&p, w, h, &rgb, &[("R".into(), vec![0.0; w * h])]).is_err()
+        );
     }
 
     #[test]

@@ -8,7 +8,8 @@
 //! - `direct` ([`DirectSettings`]): direct illumination only, with `emitter_samples` emitter
 //!   samples and `bsdf_samples` BSDF samples per shading point (both default to
 //!   `shading_samples`, 1), combined by the power heuristic weighted by the two sample counts
-//!   as in Mitsuba's `direct`; `hide_emitters` (false).
+//!   as in Mitsuba's `direct`; `hide_emitters` (false). Deviation: a delta light's
+//!   emitter samples are averaged (Mitsuba adds each with weight 1 whatever `emitter_samples`).
 //! - `depth`: the distance along the camera ray to the first hit (0 where nothing is hit), in
 //!   all three channels; `hide_emitters` is accepted and has no effect.
 //! - `aov` ([`AovSettings`]): arbitrary output variables of the first hit, listed in `aovs`
@@ -25,11 +26,11 @@
 //! that stratified samplers stay stratified dimension by dimension.
 
 use crate::core::{Hit, Ray, Result, SceneError, SurfaceGeometry};
-use crate::xml::Node;
 use crate::geometry::Geometry;
 use crate::sampler::Sampler;
 pub use crate::scene::PathSettings;
 use crate::scene::{Light, Scene};
+use crate::xml::Node;
 use glam::{Vec2, Vec3};
 use specula_bsdf::{BsdfContext, BsdfModel, Rgb, ShadingPoint};
 
@@ -517,12 +518,24 @@ impl Integrator {
                     }
                     Ok(v as u32)
                 };
+                if n.has("shading_samples") && (n.has("emitter_samples") || n.has("bsdf_samples")) {
+                    return Err(SceneError::new(
+                        Some(n.loc.clone()),
+                        "give either shading_samples or emitter_samples/bsdf_samples, not both",
+                    ));
+                }
                 let shading = count("shading_samples", 1)?;
                 let s = DirectSettings {
                     emitter_samples: count("emitter_samples", shading as i64)?,
                     bsdf_samples: count("bsdf_samples", shading as i64)?,
                     hide_emitters: hide(n)?,
                 };
+                if s.emitter_samples + s.bsdf_samples == 0 {
+                    return Err(SceneError::new(
+                        Some(n.loc.clone()),
+                        "the direct integrator needs at least one emitter or BSDF sample",
+                    ));
+                }
                 n.check_unused(&[
                     "shading_samples",
                     "emitter_samples",
@@ -548,8 +561,10 @@ impl Integrator {
                     };
                     let (name, ty) = (name.trim(), ty.trim());
                     let t = AovType::parse(ty).ok_or_else(|| {
-                        let known = "depth, position, uv, geo_normal, sh_normal, prim_index, shape_index";
-                        let msg = if ["albedo", "dp_du", "dp_dv", "duv_dx", "duv_dy"].contains(&ty) {
+                        let known =
+                            "depth, position, uv, geo_normal, sh_normal, prim_index, shape_index";
+                        let msg = if ["albedo", "dp_du", "dp_dv", "duv_dx", "duv_dy"].contains(&ty)
+                        {
                             format!("AOV type '{ty}' is not supported yet (supported: {known})")
                         } else {
                             format!("invalid AOV type '{ty}' (supported: {known})")
@@ -588,20 +603,21 @@ impl Integrator {
                 n.check_unused(&["aovs"])?;
                 Integrator::Aov(AovSettings { aovs, integrators })
             }
-            other => {
-                return Err(SceneError::new(
-                    Some(n.loc.clone()),
-                    format!(
-                        "integrator '{other}' is not supported (supported: path, direct, depth, aov)"
-                    ),
-                ))
-            }
+            other => return Err(SceneError::new(
+                Some(n.loc.clone()),
+                format!(
+                    "integrator '{other}' is not supported (supported: path, direct, depth, aov)"
+                ),
+            )),
         };
         if !matches!(i, Integrator::Aov(_)) {
             if let Some(c) = n.children.first() {
                 return Err(SceneError::new(
                     Some(c.loc.clone()),
-                    format!("<{}> cannot be nested in a '{}' integrator", c.tag, n.plugin_type),
+                    format!(
+                        "<{}> cannot be nested in a '{}' integrator",
+                        c.tag, n.plugin_type
+                    ),
                 ));
             }
         }
@@ -725,7 +741,11 @@ impl Scene {
             };
             counters.rays += 1;
             let delta = bs.lobe.is_delta();
-            let bsdf_pdf = if delta { None } else { Some(bs.pdf * frac_bsdf) };
+            let bsdf_pdf = if delta {
+                None
+            } else {
+                Some(bs.pdf * frac_bsdf)
+            };
             let le = match self.intersect(&r) {
                 None => self.infinite_radiance(d, bsdf_pdf, frac_lum),
                 Some(h2) => {
@@ -833,27 +853,69 @@ mod tests {
 
     #[test]
     fn parses_mitsuba_parameters_and_refuses_bad_ones() {
-        let s = scene(r#"<integrator type="direct"><integer name="shading_samples" value="3"/><integer name="bsdf_samples" value="0"/></integrator>"#, "").unwrap();
+        let s = scene(
+            r#"<integrator type="direct"><integer name="shading_samples" value="3"/></integrator>"#,
+            "",
+        )
+        .unwrap();
         assert_eq!(
             s.integrator,
             Integrator::Direct(DirectSettings {
                 emitter_samples: 3,
-                bsdf_samples: 0,
+                bsdf_samples: 3,
                 hide_emitters: false
             })
         );
         let s = scene(r#"<integrator type="aov"><string name="aovs" value="nn:sh_normal, position:position, depth.y:depth"/><integrator type="path" name="image"/></integrator>"#, "").unwrap();
         assert_eq!(
             s.integrator.aov_channels(),
-            ["image.R", "image.G", "image.B", "image.A", "nn.X", "nn.Y", "nn.Z", "position.X", "position.Y", "position.Z", "depth.y.T"]
+            [
+                "image.R",
+                "image.G",
+                "image.B",
+                "image.A",
+                "nn.X",
+                "nn.Y",
+                "nn.Z",
+                "position.X",
+                "position.Y",
+                "position.Z",
+                "depth.y.T"
+            ]
         );
         for (bad, msg) in [
-            (r#"<integrator type="direct"><integer name="emitter_samples" value="-1"/></integrator>"#, "emitter_samples"),
-            (r#"<integrator type="direct"><integer name="max_depth" value="2"/></integrator>"#, "max_depth"),
-            (r#"<integrator type="aov"><string name="aovs" value="a:nonsense"/></integrator>"#, "invalid AOV type 'nonsense'"),
-            (r#"<integrator type="aov"><string name="aovs" value="a:dp_du"/></integrator>"#, "not supported yet"),
-            (r#"<integrator type="aov"><string name="aovs" value="depth"/></integrator>"#, "name:type"),
-            (r#"<integrator type="depth"><integrator type="path"/></integrator>"#, "cannot be nested"),
+            (
+                r#"<integrator type="direct"><integer name="emitter_samples" value="-1"/></integrator>"#,
+                "emitter_samples",
+            ),
+            (
+                r#"<integrator type="direct"><integer name="max_depth" value="2"/></integrator>"#,
+                "max_depth",
+            ),
+            (
+                r#"<integrator type="direct"><integer name="shading_samples" value="2"/><integer name="bsdf_samples" value="0"/></integrator>"#,
+                "not both",
+            ),
+            (
+                r#"<integrator type="direct"><integer name="emitter_samples" value="0"/><integer name="bsdf_samples" value="0"/></integrator>"#,
+                "at least one",
+            ),
+            (
+                r#"<integrator type="aov"><string name="aovs" value="a:nonsense"/></integrator>"#,
+                "invalid AOV type 'nonsense'",
+            ),
+            (
+                r#"<integrator type="aov"><string name="aovs" value="a:dp_du"/></integrator>"#,
+                "not supported yet",
+            ),
+            (
+                r#"<integrator type="aov"><string name="aovs" value="depth"/></integrator>"#,
+                "name:type",
+            ),
+            (
+                r#"<integrator type="depth"><integrator type="path"/></integrator>"#,
+                "cannot be nested",
+            ),
             (r#"<integrator type="volpath"/>"#, "not supported"),
         ] {
             let e = scene(bad, "").err().unwrap().to_string();
@@ -879,7 +941,14 @@ mod tests {
         assert!(out[6..8].iter().all(|v| (0.0..=1.0).contains(v)));
         // a miss: all zero
         let ray = s.camera.ray(Vec2::new(0.5, 0.02));
-        let l = s.sample(&s.integrator, ray, s.intersect(&ray), &mut rng, &mut c, &mut out);
+        let l = s.sample(
+            &s.integrator,
+            ray,
+            s.intersect(&ray),
+            &mut rng,
+            &mut c,
+            &mut out,
+        );
         assert_eq!((l, out), (Rgb::ZERO, [0.0; 8]));
         // the depth integrator agrees with the AOV
         let d = scene(r#"<integrator type="depth"/>"#, "").unwrap();

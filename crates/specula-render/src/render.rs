@@ -96,7 +96,14 @@ fn render_tile<S: PixelSampler>(
                 scene.accel.intersect_packet(&rays[..n], &mut hits[..n]);
                 for i in 0..n {
                     sampler.start_sample(done + i as u32, 1);
-                    let l = scene.sample(integrator, rays[i], hits[i].take(), sampler, &mut c, &mut aov);
+                    let l = scene.sample(
+                        integrator,
+                        rays[i],
+                        hits[i].take(),
+                        sampler,
+                        &mut c,
+                        &mut aov,
+                    );
                     c.samples += 1;
                     if l.is_finite() {
                         block.put(pos[i], l);

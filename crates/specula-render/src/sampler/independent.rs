@@ -49,7 +49,10 @@ mod tests {
         let s = SamplerSettings::new(SamplerKind::Independent, 4);
         let p = points::<Independent>(&s, 4096, 0, 0, true);
         let mean = p.iter().fold(Vec2::ZERO, |a, &b| a + b) / p.len() as f32;
-        assert!((mean - Vec2::splat(0.5)).abs().max_element() < 0.02, "{mean}");
+        assert!(
+            (mean - Vec2::splat(0.5)).abs().max_element() < 0.02,
+            "{mean}"
+        );
         let mut t = s;
         t.seed = 1;
         assert_ne!(p[..4], points::<Independent>(&t, 4096, 0, 0, true)[..4]);

@@ -9,7 +9,7 @@
 //! projection is perfectly stratified. Deviation: Mitsuba shares the scramble between dimensions
 //! (only the permutation changes); here each dimension has its own.
 
-use super::{hash2, pixel_seed, permute, u32_to_unit, PixelSampler, Sampler, SamplerSettings};
+use super::{hash2, permute, pixel_seed, u32_to_unit, PixelSampler, Sampler, SamplerSettings};
 use glam::Vec2;
 
 /// Points per axis for (at least) `spp` samples: the smallest power of two r ≥ 2 with r² ≥ spp.

@@ -203,7 +203,9 @@ impl SamplerSettings {
         }
         if self.kind == SamplerKind::Orthogonal {
             let p = orthogonal::resolution(spp) as u64;
-            if p.checked_pow(self.strength).is_none_or(|n| n > u32::MAX as u64) {
+            if p.checked_pow(self.strength)
+                .is_none_or(|n| n > u32::MAX as u64)
+            {
                 return Err(format!(
                     "orthogonal: {p}^strength ({p}^{}) does not fit in 32 bits",
                     self.strength
@@ -397,11 +399,27 @@ pub(crate) mod tests {
         let cases: [(SamplerKind, &[(u32, u32)]); 4] = [
             (
                 SamplerKind::Stratified,
-                &[(1, 1), (2, 4), (5, 9), (10, 16), (17, 25), (50, 64), (128, 144)],
+                &[
+                    (1, 1),
+                    (2, 4),
+                    (5, 9),
+                    (10, 16),
+                    (17, 25),
+                    (50, 64),
+                    (128, 144),
+                ],
             ),
             (
                 SamplerKind::MultiJitter,
-                &[(2, 2), (3, 3), (5, 6), (10, 12), (17, 20), (50, 56), (128, 132)],
+                &[
+                    (2, 2),
+                    (3, 3),
+                    (5, 6),
+                    (10, 12),
+                    (17, 20),
+                    (50, 56),
+                    (128, 132),
+                ],
             ),
             (
                 SamplerKind::Orthogonal,

@@ -8,7 +8,9 @@
 //! column (the "correlated" variant). A 1D dimension is stratified in rx·ry strata. The order of
 //! the samples is shuffled per pixel and per dimension.
 
-use super::{jitter_value, pixel_seed, permute, PixelSampler, Sampler, SamplerSettings, ONE_MINUS_EPS};
+use super::{
+    jitter_value, permute, pixel_seed, PixelSampler, Sampler, SamplerSettings, ONE_MINUS_EPS,
+};
 use glam::Vec2;
 
 /// Grid (rx, ry) for (at least) `spp` samples.
@@ -49,7 +51,9 @@ impl MultiJitter {
     }
     #[inline]
     fn dim_seed(&mut self) -> u32 {
-        let s = self.perm_seed.wrapping_add(self.dim.wrapping_mul(0x9e37_79b9));
+        let s = self
+            .perm_seed
+            .wrapping_add(self.dim.wrapping_mul(0x9e37_79b9));
         self.dim += 1;
         s
     }

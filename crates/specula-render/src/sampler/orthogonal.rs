@@ -12,7 +12,9 @@
 //! rows (as in Mitsuba, of which a pixel's p² samples are a random subset; Mitsuba does not
 //! recommend it).
 
-use super::{jitter_value, pixel_seed, permute, PixelSampler, Sampler, SamplerSettings, ONE_MINUS_EPS};
+use super::{
+    jitter_value, permute, pixel_seed, PixelSampler, Sampler, SamplerSettings, ONE_MINUS_EPS,
+};
 use glam::Vec2;
 
 /// The smallest prime p ≥ 2 with p² ≥ spp.
@@ -149,7 +151,11 @@ impl PixelSampler for Orthogonal {
     fn start_sample(&mut self, sample: u32, dimension: u32) {
         self.sample = sample % self.count;
         self.dim = dimension;
-        let rows = if self.strength == 2 { self.count } else { self.rows };
+        let rows = if self.strength == 2 {
+            self.count
+        } else {
+            self.rows
+        };
         self.row = permute(self.sample, rows, self.perm_seed);
     }
 }

@@ -117,7 +117,10 @@ mod tests {
                 let n = 1usize << m;
                 for k in 0..=m {
                     let (nx, ny) = (1usize << k, 1usize << (m - k));
-                    assert!(stratified_2d(&p[..n], nx, ny), "dim {dim}, {n} points, {nx}×{ny}");
+                    assert!(
+                        stratified_2d(&p[..n], nx, ny),
+                        "dim {dim}, {n} points, {nx}×{ny}"
+                    );
                 }
             }
             let p = points::<Sobol>(&s, 32, 5, dim, false);

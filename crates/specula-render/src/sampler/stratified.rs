@@ -7,7 +7,9 @@
 //! gets which stratum is a random permutation (Kensler's), drawn per pixel and per dimension,
 //! so that dimensions are not correlated ("padding").
 
-use super::{jitter_value, pixel_seed, permute, PixelSampler, Sampler, SamplerSettings, ONE_MINUS_EPS};
+use super::{
+    jitter_value, permute, pixel_seed, PixelSampler, Sampler, SamplerSettings, ONE_MINUS_EPS,
+};
 use glam::Vec2;
 
 /// Strata per axis for (at least) `spp` samples: ⌈√spp⌉.
@@ -47,7 +49,8 @@ impl Stratified {
         let p = permute(
             self.sample,
             self.count,
-            self.perm_seed.wrapping_add(self.dim.wrapping_mul(0x9e37_79b9)),
+            self.perm_seed
+                .wrapping_add(self.dim.wrapping_mul(0x9e37_79b9)),
         );
         self.dim += 1;
         p
@@ -129,7 +132,9 @@ mod tests {
         let a = points::<Stratified>(&s, 16, 3, 0, true);
         let b = points::<Stratified>(&s, 16, 3, 1, true);
         let cells = |p: &[Vec2]| -> Vec<u32> {
-            p.iter().map(|q| (q.y * 4.0) as u32 * 4 + (q.x * 4.0) as u32).collect()
+            p.iter()
+                .map(|q| (q.y * 4.0) as u32 * 4 + (q.x * 4.0) as u32)
+                .collect()
         };
         assert_ne!(cells(&a), cells(&b));
     }

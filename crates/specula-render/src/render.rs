@@ -36,6 +36,9 @@ pub struct RenderOutput {
     pub elapsed: Duration,
     /// False when the render was stopped early (tiles not rendered are black).
     pub complete: bool,
+    /// Pixels whose sums overflowed `f32` (radiance near 3.4e38): black in `rgb`, never ±∞;
+    /// a caller should report them (the CLI refuses to write such an image).
+    pub overflowed: usize,
 }
 
 /// A 64-bit mix of the seed and the pixel index (SplitMix64 finaliser).
@@ -147,12 +150,14 @@ pub fn render(
             None => complete = false,
         }
     }
+    let (rgb, overflowed) = film.develop_counting();
     RenderOutput {
         width: fw,
         height: fh,
-        rgb: film.develop(),
+        rgb,
         counters,
         elapsed: start.elapsed(),
         complete,
+        overflowed,
     }
 }

@@ -481,12 +481,7 @@ impl Builder {
         }
         let w = n.int("width", 768)?;
         let h = n.int("height", 576)?;
-        if w <= 0 || h <= 0 || w > 1 << 16 || h > 1 << 16 {
-            return Err(SceneError::new(
-                Some(n.loc.clone()),
-                format!("invalid film size {w}×{h}"),
-            ));
-        }
+        crate::film::check_film_size(w, h).map_err(|m| SceneError::new(Some(n.loc.clone()), m))?;
         for p in [
             "file_format",
             "pixel_format",
@@ -523,7 +518,10 @@ impl Builder {
         let f = match n.plugin_type.as_str() {
             "box" => RFilter::Box,
             "tent" => RFilter::Tent,
-            "gaussian" => RFilter::gaussian(n.float("stddev", 0.5)?),
+            "gaussian" => RFilter::gaussian_checked(n.float("stddev", 0.5)?).map_err(|m| {
+                let loc = n.prop("stddev").map_or(&n.loc, |p| &p.loc);
+                SceneError::new(Some(loc.clone()), m)
+            })?,
             other => {
                 return Err(SceneError::new(
                     Some(n.loc.clone()),
@@ -743,11 +741,11 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
                             ),
                         ));
                     }
-                    let radiance = c.rgb("radiance", [1.0; 3])?;
+                    let radiance = crate::emitters::light_rgb(c, "radiance")?;
                     c.check_unused(&["radiance"])?;
                     parts.lights.push(Light::Area {
                         shape: shape_index,
-                        radiance: Rgb(radiance),
+                        radiance,
                     });
                     light = Some(parts.lights.len() as u32 - 1);
                 }

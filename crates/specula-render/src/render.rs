@@ -80,7 +80,11 @@ fn render_tile(
                 }
                 scene.accel.intersect_packet(&rays[..n], &mut hits[..n]);
                 for i in 0..n {
-                    let l = scene.li_from(rays[i], hits[i].take(), &mut rng, &mut c);
+                    let l = if scene.volpath {
+                        scene.li_volpath(rays[i], hits[i].take(), &mut rng, &mut c)
+                    } else {
+                        scene.li_from(rays[i], hits[i].take(), &mut rng, &mut c)
+                    };
                     c.samples += 1;
                     if l.is_finite() {
                         block.put(pos[i], l);

@@ -52,6 +52,14 @@ pub struct Scene {
     pub spp: u32,
     pub seed: u64,
     pub integrator: PathSettings,
+    /// Participating media ([`crate::media`]); shapes and the camera refer to them by index.
+    pub media: Vec<crate::media::Medium>,
+    /// Interior and exterior medium of each shape (Mitsuba's `interior`/`exterior`).
+    pub shape_media: Vec<crate::media::ShapeMedia>,
+    /// The medium the camera sits in.
+    pub camera_medium: Option<u32>,
+    /// The integrator is Mitsuba's `volpath` (with [`Scene::integrator`]'s settings).
+    pub volpath: bool,
 }
 
 impl Scene {
@@ -232,6 +240,7 @@ struct Parts {
     shape_light: Vec<Option<u32>>,
     bsdfs: Vec<Bsdf>,
     lights: Vec<Light>,
+    media: crate::media::SceneMedia,
 }
 
 impl Builder {
@@ -265,6 +274,7 @@ impl Builder {
             shape_light: vec![],
             bsdfs: vec![],
             lights: vec![],
+            media: Default::default(),
         };
         let mut integrator = PathSettings {
             max_depth: -1,
@@ -286,8 +296,16 @@ impl Builder {
                 }
             }
             match child.tag.as_str() {
+                "integrator" if child.plugin_type == "volpath" => {
+                    parts.media.volpath = true;
+                    integrator = crate::volpath::settings_from_node(child)?;
+                }
                 "integrator" => integrator = self.integrator(child)?,
-                "sensor" => sensor = Some(self.sensor(child)?),
+                "sensor" => {
+                    parts.media.camera_medium = parts.media.attached(child, false)?.1;
+                    sensor = Some(self.sensor(child)?)
+                }
+                "medium" => parts.media.declare(child)?,
                 "bsdf" => {
                     let b = self.bsdf(child)?;
                     parts.bsdfs.push(b);
@@ -334,6 +352,7 @@ impl Builder {
             .filter(|(_, l)| matches!(l, Light::Other(e) if e.is_infinite()))
             .map(|(i, _)| i as u32)
             .collect();
+        parts.media.check_integrator(root)?;
         let accel = Bvh::build(&parts.geometry);
         Ok(Scene {
             geometry: parts.geometry,
@@ -348,6 +367,10 @@ impl Builder {
             spp,
             seed,
             integrator,
+            media: parts.media.media,
+            shape_media: parts.media.shape_media,
+            camera_medium: parts.media.camera_medium,
+            volpath: parts.media.volpath,
         })
     }
 
@@ -392,6 +415,7 @@ impl Builder {
         for c in &n.children {
             match c.tag.as_str() {
                 "film" => film = Some(self.film(c)?),
+                "medium" | "ref" => {} // the camera's medium (build() reads it)
                 "sampler" => {
                     const SAMPLERS: [&str; 5] = [
                         "independent",
@@ -576,6 +600,9 @@ impl Builder {
 
     /// Convert an XML BSDF node into the material library's parameters and build it.
     fn bsdf(&self, n: &Node) -> Result<Bsdf> {
+        if n.plugin_type == "null" {
+            return crate::media::null_bsdf(n);
+        }
         let mut props = Props::new(n.plugin_type.clone(), loc_str(&n.loc));
         for p in &n.props {
             let v = match &p.value {
@@ -726,6 +753,8 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
                     parts.bsdfs.push(b);
                     bsdf = Some(parts.bsdfs.len() as u32 - 1);
                 }
+                "medium" => {}
+                "ref" if matches!(c.name.as_deref(), Some("interior" | "exterior")) => {}
                 "ref" => {
                     let id = c.id.clone().unwrap_or_default();
                     match self.bsdf_ids.get(&id) {
@@ -775,6 +804,8 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
         parts.geometry.push(geom);
         parts.shape_bsdf.push(bsdf);
         parts.shape_light.push(light);
+        let sm = parts.media.attached(n, true)?.0;
+        parts.media.shape_media.push(sm);
         Ok(())
     }
 }

@@ -1,0 +1,204 @@
+//! `homogeneous`: a participating medium with the same extinction and albedo everywhere
+//! (Mitsuba 3's `homogeneous`).
+//!
+//! Parameters (Mitsuba's names and defaults):
+//! - `sigma_t` (float, rgb or a nested `<volume type="constvolume">`, default 1): extinction
+//!   coefficient σt per unit length, before `scale`;
+//! - `albedo` (float, rgb or a nested `<volume type="constvolume">`, default 0.75): the
+//!   single-scattering albedo σs/σt;
+//! - `scale` (float, default 1): multiplies `sigma_t` (so σt = scale·sigma_t, σs =
+//!   albedo·σt);
+//! - `sample_emitters` (bool, default true): next-event estimation at scattering events;
+//! - `has_spectral_extinction` (bool, default true): accepted; Specula always handles a
+//!   per-channel σt (it only changes Mitsuba's speed when σt is grey);
+//! - a nested `<phase>` (default `isotropic`).
+//!
+//! **Chromatic extinction.** Free-flight distances are sampled with one colour channel's σt,
+//! the channel drawn uniformly for each segment; the sample is weighted by the *average* of
+//! the three channels' densities (one-sample MIS with the balance heuristic, as in pbrt-v3), so
+//! a channel with a much smaller σt than the one sampled never gets an unbounded weight. This
+//! is unbiased like Mitsuba 3's `volpath` (which draws the channel once per path and weights by
+//! that channel's density alone), has the same expectation, and has lower variance.
+//!
+//! Deviations from Mitsuba: spatially varying `albedo`/`sigma_t` (a `gridvolume` inside a
+//! `homogeneous` medium) are not supported yet; a clear error says so.
+
+use super::phase::PhaseFunction;
+use specula_bsdf::Rgb;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Homogeneous {
+    /// σt after `scale`.
+    pub sigma_t: Rgb,
+    pub albedo: Rgb,
+    pub sample_emitters: bool,
+    pub phase: PhaseFunction,
+}
+
+/// Outcome of sampling a free-flight distance along a segment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FreeFlight {
+    /// A real scattering event at distance `t`; `weight` = σs·Tr(t) / p(t) (throughput factor).
+    Scatter { t: f32, weight: Rgb },
+    /// The segment was crossed; `weight` = Tr(t_max) / P(pass).
+    Pass { weight: Rgb },
+}
+
+impl Homogeneous {
+    pub fn new(sigma_t: Rgb, albedo: Rgb, scale: f32, phase: PhaseFunction) -> Self {
+        Homogeneous {
+            sigma_t: sigma_t * scale,
+            albedo,
+            sample_emitters: true,
+            phase,
+        }
+    }
+
+    /// Transmittance exp(−σt·d) per channel.
+    #[inline]
+    pub fn transmittance(&self, d: f32) -> Rgb {
+        if d.is_infinite() {
+            return self.sigma_t.map(|s| if s > 0.0 { 0.0 } else { 1.0 });
+        }
+        self.sigma_t.map(|s| (-s * d).exp())
+    }
+
+    /// Samples a distance along a segment of length `t_max` (may be infinite) from
+    /// `u_channel` (the channel) and `u` (the distance).
+    #[inline]
+    pub fn sample_free_flight(&self, t_max: f32, u_channel: f32, u: f32) -> FreeFlight {
+        let c = ((u_channel * 3.0) as usize).min(2);
+        let s = self.sigma_t[c];
+        let t = if s > 0.0 {
+            -(1.0 - u).ln() / s
+        } else {
+            f32::INFINITY
+        };
+        if t < t_max {
+            let tr = self.transmittance(t);
+            let pdf = (self.sigma_t * tr).mean();
+            let weight = if pdf > 0.0 {
+                self.sigma_t * self.albedo * tr / pdf
+            } else {
+                Rgb::ZERO
+            };
+            FreeFlight::Scatter { t, weight }
+        } else {
+            let tr = self.transmittance(t_max);
+            let p = tr.mean();
+            let weight = if p > 0.0 { tr / p } else { Rgb::ZERO };
+            FreeFlight::Pass { weight }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use specula_bsdf::rng::Pcg32;
+
+    fn medium(st: [f32; 3], albedo: [f32; 3]) -> Homogeneous {
+        Homogeneous::new(Rgb(st), Rgb(albedo), 1.0, PhaseFunction::Isotropic)
+    }
+
+    /// Transmittance through an absorbing slab of thickness d is exp(−σt·d) per channel, both
+    /// as evaluated and as estimated by free-flight sampling (the mean of the pass weights,
+    /// counting a scattering event as 0): 400,000 samples, fixed seed, within 4 standard errors.
+    #[test]
+    fn slab_transmittance_is_beer_lambert() {
+        let m = medium([0.2, 1.0, 3.0], [0.0; 3]);
+        let d = 0.8;
+        let want = [
+            (-0.2f32 * d).exp(),
+            (-1.0f32 * d).exp(),
+            (-3.0f32 * d).exp(),
+        ];
+        let tr = m.transmittance(d);
+        for c in 0..3 {
+            assert!((tr[c] - want[c]).abs() < 1e-6);
+        }
+        let mut rng = Pcg32::new(1, 2);
+        let n = 400_000;
+        let (mut sum, mut sum2) = ([0f64; 3], [0f64; 3]);
+        for _ in 0..n {
+            if let FreeFlight::Pass { weight } =
+                m.sample_free_flight(d, rng.next_f32(), rng.next_f32())
+            {
+                for c in 0..3 {
+                    sum[c] += weight[c] as f64;
+                    sum2[c] += (weight[c] as f64).powi(2);
+                }
+            }
+        }
+        for c in 0..3 {
+            let mean = sum[c] / n as f64;
+            let se = ((sum2[c] / n as f64 - mean * mean) / n as f64).sqrt();
+            assert!(
+                (mean - want[c] as f64).abs() < 4.0 * se + 1e-6,
+                "channel {c}: {mean} vs {} (se {se})",
+                want[c]
+            );
+        }
+    }
+
+    /// The mean free path (mean sampled distance in an unbounded medium) is 1/σt: grey σt = 2.5,
+    /// 400,000 samples, within 4 standard errors; and with albedo 1 every scattering weight is 1.
+    #[test]
+    fn mean_free_path_is_inverse_sigma_t() {
+        let m = medium([2.5; 3], [1.0; 3]);
+        let mut rng = Pcg32::new(5, 9);
+        let n = 400_000;
+        let (mut s, mut s2) = (0f64, 0f64);
+        for _ in 0..n {
+            match m.sample_free_flight(f32::INFINITY, rng.next_f32(), rng.next_f32()) {
+                FreeFlight::Scatter { t, weight } => {
+                    assert!((weight.max_component() - 1.0).abs() < 1e-5);
+                    assert!((weight.min_component() - 1.0).abs() < 1e-5);
+                    s += t as f64;
+                    s2 += (t as f64).powi(2);
+                }
+                FreeFlight::Pass { .. } => panic!("escaped an unbounded medium"),
+            }
+        }
+        let mean = s / n as f64;
+        let se = ((s2 / n as f64 - mean * mean) / n as f64).sqrt();
+        assert!(
+            (mean - 0.4).abs() < 4.0 * se,
+            "mean free path {mean} (se {se})"
+        );
+    }
+
+    /// The estimator is unbiased per channel for chromatic extinction: the expected scattering
+    /// weight density integrates with the pass weight to the analytic single-scatter albedo
+    /// split: E[scatter weight] = albedo·(1 − Tr(d)), E[pass weight] = Tr(d).
+    #[test]
+    fn chromatic_extinction_unbiased() {
+        let m = medium([0.1, 0.9, 4.0], [0.9, 0.5, 0.2]);
+        let d = 1.3;
+        let mut rng = Pcg32::new(77, 1);
+        let n = 400_000;
+        let (mut sc, mut pa) = ([0f64; 3], [0f64; 3]);
+        for _ in 0..n {
+            match m.sample_free_flight(d, rng.next_f32(), rng.next_f32()) {
+                FreeFlight::Scatter { weight, .. } => {
+                    (0..3).for_each(|c| sc[c] += weight[c] as f64)
+                }
+                FreeFlight::Pass { weight } => (0..3).for_each(|c| pa[c] += weight[c] as f64),
+            }
+        }
+        for c in 0..3 {
+            let tr = (-(m.sigma_t[c] * d) as f64).exp();
+            let want_s = m.albedo[c] as f64 * (1.0 - tr);
+            assert!(
+                (sc[c] / n as f64 - want_s).abs() < 0.01,
+                "channel {c} scatter {} vs {want_s}",
+                sc[c] / n as f64
+            );
+            assert!(
+                (pa[c] / n as f64 - tr).abs() < 0.01,
+                "channel {c} pass {} vs {tr}",
+                pa[c] / n as f64
+            );
+        }
+    }
+}

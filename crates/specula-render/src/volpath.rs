@@ -22,8 +22,9 @@
 //!   attached leaves the medium unchanged; the camera starts in the sensor's medium.
 //!
 //! Deviations from Mitsuba (same expectation, different noise): free-flight distances are
-//! sampled with a channel drawn per segment and weighted by the channels' average density
-//! (see [`crate::media::homogeneous`]); shadow rays use the exact transmittance of homogeneous
+//! sampled with a hero channel drawn per path, as Mitsuba does, but weighted by the average of
+//! the channels' path densities (spectral MIS, as Mitsuba's `volpathmis`; see
+//! [`crate::media::homogeneous`]); shadow rays use the exact transmittance of homogeneous
 //! media instead of a track-length estimate; emitting spheres are sampled by area rather than
 //! by the cone they subtend.
 
@@ -238,6 +239,10 @@ impl Scene {
         let mut eta = 1.0f32;
         let mut depth = 0u32;
         let mut medium = self.camera_medium;
+        // spectral MIS over the hero channel (see crate::media::homogeneous): `throughput` is
+        // f / p_hero and `r_u` is p_c / p_hero; contributions are divided by mean(r_u)
+        let hero = ((rng.next_f32() * 3.0) as usize).min(2);
+        let mut r_u = Rgb::ONE;
         let mut specular_chain = !settings.hide_emitters;
         let mut last_p = ray.o;
         let mut last_pdf = 1.0f32;
@@ -248,7 +253,7 @@ impl Scene {
                 break;
             }
             if depth > rr_depth {
-                let q = (throughput.max_component() * eta * eta).min(0.95);
+                let q = (throughput.max_component() / r_u.mean() * eta * eta).min(0.95);
                 if rng.next_f32() >= q {
                     break;
                 }
@@ -269,10 +274,16 @@ impl Scene {
             if let Some(mi) = medium {
                 let m = &self.media[mi as usize];
                 let t_max = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
-                let (u_c, u_t) = (rng.next_f32(), rng.next_f32());
-                match m.sample_free_flight(t_max, u_c, u_t) {
-                    FreeFlight::Scatter { t, weight } => {
-                        throughput *= weight;
+                let ff = m.sample_free_flight(t_max, hero, rng.next_f32());
+                let (FreeFlight::Scatter { value, pdf, .. } | FreeFlight::Pass { value, pdf }) = ff;
+                let ph = pdf[hero];
+                if !(ph > 0.0) {
+                    break;
+                }
+                throughput *= value / ph;
+                r_u *= pdf / ph;
+                match ff {
+                    FreeFlight::Scatter { t, .. } => {
                         depth += 1;
                         if depth >= max_depth || throughput.is_black() {
                             break;
@@ -289,7 +300,7 @@ impl Scene {
                                 } else {
                                     mis(ls.pdf, phase.pdf(wi, ls.wi))
                                 };
-                                result += throughput * ls.weight * tr * (f * w);
+                                result += throughput * ls.weight * tr * (f * w / r_u.mean());
                             }
                         } else {
                             specular_chain = true;
@@ -307,7 +318,7 @@ impl Scene {
                         };
                         continue;
                     }
-                    FreeFlight::Pass { weight } => throughput *= weight,
+                    FreeFlight::Pass { .. } => {}
                 }
             }
 
@@ -327,7 +338,7 @@ impl Scene {
                             } else {
                                 mis(last_pdf, e.pdf_direction(ray.d) * self.vp_select_pdf())
                             };
-                            result += throughput * le * w;
+                            result += throughput * le * (w / r_u.mean());
                         }
                     }
                 }
@@ -347,7 +358,7 @@ impl Scene {
                                 self.vp_area_pdf(hit.shape, last_p, si.p, si.n_geo),
                             )
                         };
-                        result += throughput * *radiance * w;
+                        result += throughput * *radiance * (w / r_u.mean());
                     }
                 }
             }
@@ -392,7 +403,8 @@ impl Scene {
                             } else {
                                 mis(ls.pdf, bsdf_pdf)
                             };
-                            result += throughput * f * ls.weight * tr * (wo.z.abs() * w);
+                            result +=
+                                throughput * f * ls.weight * tr * (wo.z.abs() * w / r_u.mean());
                         }
                     }
                 }
@@ -424,5 +436,183 @@ impl Scene {
             };
         }
         result
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::render::{render, RenderOptions};
+    use crate::scene::Scene;
+    use std::path::Path;
+    use std::sync::atomic::AtomicBool;
+
+    fn scene(
+        body: &str,
+        sensor_extra: &str,
+        origin: &str,
+        integrator: &str,
+    ) -> crate::core::Result<Scene> {
+        scene_fov(body, sensor_extra, origin, integrator, 60.0)
+    }
+
+    fn scene_fov(
+        body: &str,
+        sensor_extra: &str,
+        origin: &str,
+        integrator: &str,
+        fov: f32,
+    ) -> crate::core::Result<Scene> {
+        let text = format!(
+            r#"<scene version="3.0.0">
+    <integrator type="{integrator}"/>
+    {body}
+    <sensor type="perspective">
+        <float name="fov" value="{fov}"/>
+        <transform name="to_world"><lookat origin="{origin}" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+        {sensor_extra}
+    </sensor>
+</scene>"#
+        );
+        Scene::from_xml_str(&text, "<test>", Path::new("."), &[])
+    }
+
+    fn mean(s: &Scene, spp: u32) -> [f64; 3] {
+        let out = render(
+            s,
+            &RenderOptions {
+                spp,
+                seed: 3,
+                threads: 1,
+            },
+            &AtomicBool::new(false),
+            &|_, _| {},
+        );
+        assert_eq!(out.counters.invalid, 0);
+        let mut m = [0f64; 3];
+        for px in out.rgb.chunks(3) {
+            for c in 0..3 {
+                m[c] += px[c] as f64;
+            }
+        }
+        m.map(|v| v / (out.rgb.len() / 3) as f64)
+    }
+
+    const FURNACE: &str = r#"
+    <emitter type="constant"><rgb name="radiance" value="0.5, 0.7, 1.0"/></emitter>
+    <medium type="homogeneous" id="m">
+        <rgb name="sigma_t" value="0.5, 2, 4"/>
+        <float name="albedo" value="1"/>
+        <phase type="hg"><float name="g" value="0.4"/></phase>
+    </medium>
+    <shape type="sphere"><float name="radius" value="1.5"/><bsdf type="null"/><ref name="interior" id="m"/></shape>"#;
+
+    /// A volumetric furnace: a non-absorbing (albedo 1) medium bounded by an invisible `null`
+    /// sphere under uniform light of radiance L keeps radiance L everywhere and in every
+    /// direction (chromatic extinction, anisotropic phase function), seen from inside (the
+    /// camera's medium) and from outside. 8×8 pixels × 512 spp, fixed seed; 1 % tolerance.
+    #[test]
+    fn volumetric_furnace() {
+        let want = [0.5, 0.7, 1.0];
+        for (extra, origin) in [(r#"<ref id="m"/>"#, "0, 0.2, 0.1"), ("", "0, 0, -4")] {
+            let s = scene(FURNACE, extra, origin, "volpath").unwrap();
+            assert!(s.volpath && s.media.len() == 1);
+            let m = mean(&s, 512);
+            for c in 0..3 {
+                assert!(
+                    (m[c] / want[c] - 1.0).abs() < 0.01,
+                    "camera at {origin}: {m:?} vs {want:?}"
+                );
+            }
+        }
+    }
+
+    /// An absorbing medium (albedo 0) seen through its null boundary: the image is the
+    /// environment times exp(−σt·chord); at the sphere's centre line the chord is 2r.
+    #[test]
+    fn absorbing_sphere_attenuates_by_beer_lambert() {
+        let body = r#"
+    <emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>
+    <shape type="sphere"><float name="radius" value="1"/><bsdf type="null"/>
+        <medium type="homogeneous" name="interior"><rgb name="sigma_t" value="0.1, 0.5, 1.5"/><float name="albedo" value="0"/></medium>
+    </shape>"#;
+        let s = scene_fov(body, "", "0, 0, -4", "volpath", 0.5).unwrap();
+        // 262,144 samples: the relative standard error of the red channel is about 0.4 %
+        let m = mean(&s, 4096);
+        for (c, st) in [0.1f64, 0.5, 1.5].iter().enumerate() {
+            let want = (-st * 2.0).exp();
+            assert!(
+                (m[c] / want - 1.0).abs() < 0.01,
+                "channel {c}: {} vs {want}",
+                m[c]
+            );
+        }
+    }
+
+    #[test]
+    fn path_refuses_media_and_bad_refs_are_errors() {
+        let e = scene(FURNACE, "", "0, 0, -4", "path")
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("volpath") && e.contains("<test>:"), "{e}");
+        let e = scene(
+            r#"<shape type="sphere"><ref name="interior" id="nope"/></shape>"#,
+            "",
+            "0, 0, -4",
+            "volpath",
+        )
+        .err()
+        .unwrap()
+        .to_string();
+        assert!(e.contains("'nope'") && e.contains("<test>:"), "{e}");
+        let e = scene(
+            r#"<shape type="sphere"><medium type="homogeneous" name="inside"/></shape>"#,
+            "",
+            "0, 0, -4",
+            "volpath",
+        )
+        .err()
+        .unwrap()
+        .to_string();
+        assert!(e.contains("interior") && e.contains("<test>:"), "{e}");
+        let e = scene(FURNACE, "", "0, 0, -4", "volpath")
+            .map(|_| ())
+            .and_then(|_| {
+                scene(
+                    r#"<integrator type="volpath"><integer name="depth" value="3"/></integrator>"#,
+                    "",
+                    "0, 0, -4",
+                    "volpath",
+                )
+                .map(|_| ())
+            })
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(!e.is_empty());
+    }
+
+    /// Nested volumes: an absorbing sphere inside a larger absorbing sphere (inner's exterior is
+    /// the outer medium). Along the centre line the light crosses 2 units of the inner medium
+    /// and 2·(2 − 1) of the outer: exp(−(2σ_in + 2σ_out)).
+    #[test]
+    fn nested_media() {
+        let body = r#"
+    <emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>
+    <medium type="homogeneous" id="outer"><float name="sigma_t" value="0.3"/><float name="albedo" value="0"/></medium>
+    <shape type="sphere"><float name="radius" value="2"/><bsdf type="null"/><ref name="interior" id="outer"/></shape>
+    <shape type="sphere"><float name="radius" value="1"/><bsdf type="null"/>
+        <medium type="homogeneous" name="interior"><float name="sigma_t" value="0.8"/><float name="albedo" value="0"/></medium>
+        <ref name="exterior" id="outer"/>
+    </shape>"#;
+        let s = scene_fov(body, "", "0, 0, -6", "volpath", 0.3).unwrap();
+        // a path survives with probability T ≈ 0.11 and weight 1: 524,288 samples give a
+        // relative standard error of 0.4 %
+        let m = mean(&s, 8192);
+        let want = (-(2.0 * 0.8 + 2.0 * 0.3f64)).exp();
+        for c in m {
+            assert!((c / want - 1.0).abs() < 0.02, "{c} vs {want}");
+        }
     }
 }

@@ -13,12 +13,14 @@
 //!   per-channel σt (it only changes Mitsuba's speed when σt is grey);
 //! - a nested `<phase>` (default `isotropic`).
 //!
-//! **Chromatic extinction.** Free-flight distances are sampled with one colour channel's σt,
-//! the channel drawn uniformly for each segment; the sample is weighted by the *average* of
-//! the three channels' densities (one-sample MIS with the balance heuristic, as in pbrt-v3), so
-//! a channel with a much smaller σt than the one sampled never gets an unbounded weight. This
-//! is unbiased like Mitsuba 3's `volpath` (which draws the channel once per path and weights by
-//! that channel's density alone), has the same expectation, and has lower variance.
+//! **Chromatic extinction.** Free-flight distances are sampled with one colour channel's σt
+//! (the path's *hero* channel, drawn uniformly once per path, as Mitsuba 3's `volpath` does).
+//! [`Homogeneous::sample_free_flight`] returns, per channel, the path contribution factor and
+//! the density that channel would have given the same event; the integrator divides the path's
+//! contribution by the *average* over channels of the path densities (spectral MIS with the
+//! balance heuristic, Mitsuba's `volpathmis`), so a channel with a σt far from the hero's
+//! never gets an unbounded weight. This is unbiased like Mitsuba 3's `volpath` (which weights
+//! by the hero channel's density alone), has the same expectation, and far lower variance.
 //!
 //! Deviations from Mitsuba: spatially varying `albedo`/`sigma_t` (a `gridvolume` inside a
 //! `homogeneous` medium) are not supported yet; a clear error says so.
@@ -35,13 +37,32 @@ pub struct Homogeneous {
     pub phase: PhaseFunction,
 }
 
-/// Outcome of sampling a free-flight distance along a segment.
+/// Outcome of sampling a free-flight distance along a segment: `value` is the contribution
+/// factor per channel and `pdf` the density (or probability) of the same event had each channel
+/// been the one sampled with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum FreeFlight {
-    /// A real scattering event at distance `t`; `weight` = σs·Tr(t) / p(t) (throughput factor).
-    Scatter { t: f32, weight: Rgb },
-    /// The segment was crossed; `weight` = Tr(t_max) / P(pass).
-    Pass { weight: Rgb },
+    /// A real scattering event at distance `t`: value σs·Tr(t), pdf σt·Tr(t).
+    Scatter { t: f32, value: Rgb, pdf: Rgb },
+    /// The segment was crossed: value and pdf Tr(t_max).
+    Pass { value: Rgb, pdf: Rgb },
+}
+
+impl FreeFlight {
+    /// The weight value / (average pdf) of a single event.
+    pub fn mis_weight(&self) -> Rgb {
+        let (v, p) = match self {
+            FreeFlight::Scatter { value, pdf, .. } | FreeFlight::Pass { value, pdf } => {
+                (value, pdf)
+            }
+        };
+        let m = p.mean();
+        if m > 0.0 {
+            *v / m
+        } else {
+            Rgb::ZERO
+        }
+    }
 }
 
 impl Homogeneous {
@@ -63,12 +84,11 @@ impl Homogeneous {
         self.sigma_t.map(|s| (-s * d).exp())
     }
 
-    /// Samples a distance along a segment of length `t_max` (may be infinite) from
-    /// `u_channel` (the channel) and `u` (the distance).
+    /// Samples a distance along a segment of length `t_max` (may be infinite) with channel
+    /// `channel`'s σt from `u`.
     #[inline]
-    pub fn sample_free_flight(&self, t_max: f32, u_channel: f32, u: f32) -> FreeFlight {
-        let c = ((u_channel * 3.0) as usize).min(2);
-        let s = self.sigma_t[c];
+    pub fn sample_free_flight(&self, t_max: f32, channel: usize, u: f32) -> FreeFlight {
+        let s = self.sigma_t[channel];
         let t = if s > 0.0 {
             -(1.0 - u).ln() / s
         } else {
@@ -76,18 +96,14 @@ impl Homogeneous {
         };
         if t < t_max {
             let tr = self.transmittance(t);
-            let pdf = (self.sigma_t * tr).mean();
-            let weight = if pdf > 0.0 {
-                self.sigma_t * self.albedo * tr / pdf
-            } else {
-                Rgb::ZERO
-            };
-            FreeFlight::Scatter { t, weight }
+            FreeFlight::Scatter {
+                t,
+                value: self.sigma_t * self.albedo * tr,
+                pdf: self.sigma_t * tr,
+            }
         } else {
             let tr = self.transmittance(t_max);
-            let p = tr.mean();
-            let weight = if p > 0.0 { tr / p } else { Rgb::ZERO };
-            FreeFlight::Pass { weight }
+            FreeFlight::Pass { value: tr, pdf: tr }
         }
     }
 }
@@ -96,6 +112,11 @@ impl Homogeneous {
 mod tests {
     use super::*;
     use specula_bsdf::rng::Pcg32;
+
+    /// A channel drawn uniformly per event (so that one event's average-pdf weight is unbiased).
+    fn chan(rng: &mut Pcg32) -> usize {
+        ((rng.next_f32() * 3.0) as usize).min(2)
+    }
 
     fn medium(st: [f32; 3], albedo: [f32; 3]) -> Homogeneous {
         Homogeneous::new(Rgb(st), Rgb(albedo), 1.0, PhaseFunction::Isotropic)
@@ -121,9 +142,9 @@ mod tests {
         let n = 400_000;
         let (mut sum, mut sum2) = ([0f64; 3], [0f64; 3]);
         for _ in 0..n {
-            if let FreeFlight::Pass { weight } =
-                m.sample_free_flight(d, rng.next_f32(), rng.next_f32())
-            {
+            let ff = m.sample_free_flight(d, chan(&mut rng), rng.next_f32());
+            if let FreeFlight::Pass { .. } = ff {
+                let weight = ff.mis_weight();
                 for c in 0..3 {
                     sum[c] += weight[c] as f64;
                     sum2[c] += (weight[c] as f64).powi(2);
@@ -150,8 +171,10 @@ mod tests {
         let n = 400_000;
         let (mut s, mut s2) = (0f64, 0f64);
         for _ in 0..n {
-            match m.sample_free_flight(f32::INFINITY, rng.next_f32(), rng.next_f32()) {
-                FreeFlight::Scatter { t, weight } => {
+            let ff = m.sample_free_flight(f32::INFINITY, chan(&mut rng), rng.next_f32());
+            let weight = ff.mis_weight();
+            match ff {
+                FreeFlight::Scatter { t, .. } => {
                     assert!((weight.max_component() - 1.0).abs() < 1e-5);
                     assert!((weight.min_component() - 1.0).abs() < 1e-5);
                     s += t as f64;
@@ -179,11 +202,11 @@ mod tests {
         let n = 400_000;
         let (mut sc, mut pa) = ([0f64; 3], [0f64; 3]);
         for _ in 0..n {
-            match m.sample_free_flight(d, rng.next_f32(), rng.next_f32()) {
-                FreeFlight::Scatter { weight, .. } => {
-                    (0..3).for_each(|c| sc[c] += weight[c] as f64)
-                }
-                FreeFlight::Pass { weight } => (0..3).for_each(|c| pa[c] += weight[c] as f64),
+            let ff = m.sample_free_flight(d, chan(&mut rng), rng.next_f32());
+            let weight = ff.mis_weight();
+            match ff {
+                FreeFlight::Scatter { .. } => (0..3).for_each(|c| sc[c] += weight[c] as f64),
+                FreeFlight::Pass { .. } => (0..3).for_each(|c| pa[c] += weight[c] as f64),
             }
         }
         for c in 0..3 {

@@ -43,9 +43,9 @@ impl Medium {
         }
     }
     #[inline]
-    pub fn sample_free_flight(&self, t_max: f32, u_channel: f32, u: f32) -> FreeFlight {
+    pub fn sample_free_flight(&self, t_max: f32, channel: usize, u: f32) -> FreeFlight {
         match self {
-            Medium::Homogeneous(m) => m.sample_free_flight(t_max, u_channel, u),
+            Medium::Homogeneous(m) => m.sample_free_flight(t_max, channel, u),
         }
     }
     /// Transmittance along a segment of length `d` inside the medium.

@@ -297,7 +297,7 @@ impl Scene {
             if let Some(mi) = medium {
                 let m = &self.media[mi as usize];
                 let t_max = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
-                let ff = m.sample_free_flight(t_max, hero, rng.next_f32());
+                let ff = m.sample_free_flight(ray.o, ray.d, t_max, hero, rng.next_f32());
                 let (FreeFlight::Scatter { value, pdf, .. } | FreeFlight::Pass { value, pdf }) = ff;
                 let ph = pdf[hero];
                 if !(ph > 0.0) {

@@ -4,8 +4,8 @@
 //! Parameters (Mitsuba's names and defaults):
 //! - `sigma_t` (float, rgb or a nested `<volume type="constvolume">`, default 1): extinction
 //!   coefficient σt per unit length, before `scale`;
-//! - `albedo` (float, rgb or a nested `<volume type="constvolume">`, default 0.75): the
-//!   single-scattering albedo σs/σt;
+//! - `albedo` (float, rgb or a nested `<volume>`: `constvolume`, or a `gridvolume` for an
+//!   albedo that varies in space, default 0.75): the single-scattering albedo σs/σt;
 //! - `scale` (float, default 1): multiplies `sigma_t` (so σt = scale·sigma_t, σs =
 //!   albedo·σt);
 //! - `sample_emitters` (bool, default true): next-event estimation at scattering events;
@@ -22,17 +22,22 @@
 //! never gets an unbounded weight. This is unbiased like Mitsuba 3's `volpath` (which weights
 //! by the hero channel's density alone), has the same expectation, and far lower variance.
 //!
-//! Deviations from Mitsuba: spatially varying `albedo`/`sigma_t` (a `gridvolume` inside a
-//! `homogeneous` medium) are not supported yet; a clear error says so.
+//! Deviations from Mitsuba: a spatially varying `sigma_t` (a `gridvolume`) is refused with a
+//! clear error (Mitsuba's `homogeneous` evaluates it at one point; use `heterogeneous`).
 
 use super::phase::PhaseFunction;
+use super::volume::GridVolume;
+use glam::Vec3;
 use specula_bsdf::Rgb;
+use std::sync::Arc;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Homogeneous {
     /// σt after `scale`.
     pub sigma_t: Rgb,
     pub albedo: Rgb,
+    /// A spatially varying albedo, replacing `albedo` where present.
+    pub albedo_grid: Option<Arc<GridVolume>>,
     pub sample_emitters: bool,
     pub phase: PhaseFunction,
 }
@@ -70,6 +75,7 @@ impl Homogeneous {
         Homogeneous {
             sigma_t: sigma_t * scale,
             albedo,
+            albedo_grid: None,
             sample_emitters: true,
             phase,
         }
@@ -84,10 +90,17 @@ impl Homogeneous {
         self.sigma_t.map(|s| (-s * d).exp())
     }
 
-    /// Samples a distance along a segment of length `t_max` (may be infinite) with channel
-    /// `channel`'s σt from `u`.
+    /// Samples a distance along the segment `o + t·d`, t < `t_max` (may be infinite), with
+    /// channel `channel`'s σt from `u`.
     #[inline]
-    pub fn sample_free_flight(&self, t_max: f32, channel: usize, u: f32) -> FreeFlight {
+    pub fn sample_free_flight(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+        channel: usize,
+        u: f32,
+    ) -> FreeFlight {
         let s = self.sigma_t[channel];
         let t = if s > 0.0 {
             -(1.0 - u).ln() / s
@@ -96,9 +109,13 @@ impl Homogeneous {
         };
         if t < t_max {
             let tr = self.transmittance(t);
+            let albedo = match &self.albedo_grid {
+                Some(g) => g.eval(o + d * t),
+                None => self.albedo,
+            };
             FreeFlight::Scatter {
                 t,
-                value: self.sigma_t * self.albedo * tr,
+                value: self.sigma_t * albedo * tr,
                 pdf: self.sigma_t * tr,
             }
         } else {
@@ -142,7 +159,7 @@ mod tests {
         let n = 400_000;
         let (mut sum, mut sum2) = ([0f64; 3], [0f64; 3]);
         for _ in 0..n {
-            let ff = m.sample_free_flight(d, chan(&mut rng), rng.next_f32());
+            let ff = m.sample_free_flight(Vec3::ZERO, Vec3::Z, d, chan(&mut rng), rng.next_f32());
             if let FreeFlight::Pass { .. } = ff {
                 let weight = ff.mis_weight();
                 for c in 0..3 {
@@ -171,7 +188,13 @@ mod tests {
         let n = 400_000;
         let (mut s, mut s2) = (0f64, 0f64);
         for _ in 0..n {
-            let ff = m.sample_free_flight(f32::INFINITY, chan(&mut rng), rng.next_f32());
+            let ff = m.sample_free_flight(
+                Vec3::ZERO,
+                Vec3::Z,
+                f32::INFINITY,
+                chan(&mut rng),
+                rng.next_f32(),
+            );
             let weight = ff.mis_weight();
             match ff {
                 FreeFlight::Scatter { t, .. } => {
@@ -202,7 +225,7 @@ mod tests {
         let n = 400_000;
         let (mut sc, mut pa) = ([0f64; 3], [0f64; 3]);
         for _ in 0..n {
-            let ff = m.sample_free_flight(d, chan(&mut rng), rng.next_f32());
+            let ff = m.sample_free_flight(Vec3::ZERO, Vec3::Z, d, chan(&mut rng), rng.next_f32());
             let weight = ff.mis_weight();
             match ff {
                 FreeFlight::Scatter { .. } => (0..3).for_each(|c| sc[c] += weight[c] as f64),

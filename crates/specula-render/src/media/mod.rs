@@ -14,6 +14,7 @@
 
 pub mod homogeneous;
 pub mod phase;
+pub mod volume;
 
 pub use homogeneous::{FreeFlight, Homogeneous};
 pub use phase::{PhaseFunction, PhaseSample};
@@ -43,9 +44,16 @@ impl Medium {
         }
     }
     #[inline]
-    pub fn sample_free_flight(&self, t_max: f32, channel: usize, u: f32) -> FreeFlight {
+    pub fn sample_free_flight(
+        &self,
+        o: glam::Vec3,
+        d: glam::Vec3,
+        t_max: f32,
+        channel: usize,
+        u: f32,
+    ) -> FreeFlight {
         match self {
-            Medium::Homogeneous(m) => m.sample_free_flight(t_max, channel, u),
+            Medium::Homogeneous(m) => m.sample_free_flight(o, d, t_max, channel, u),
         }
     }
     /// Transmittance along a segment of length `d` inside the medium.
@@ -77,9 +85,13 @@ fn volume_param(n: &Node, name: &str, default: f32) -> Result<Rgb> {
                 v.check_unused(&["value"])?;
                 Ok(val)
             }
+            "gridvolume" => Err(err(
+                v,
+                format!("a gridvolume cannot give '{name}' of a homogeneous medium (only its albedo may vary in space)"),
+            )),
             other => Err(err(
                 v,
-                format!("volume '{other}' is not supported (supported: constvolume)"),
+                format!("volume '{other}' is not supported (supported: constvolume, gridvolume)"),
             )),
         };
     }
@@ -157,7 +169,19 @@ pub fn medium_from_node(n: &Node) -> Result<Medium> {
     match n.plugin_type.as_str() {
         "homogeneous" => {
             let sigma_t = volume_param(n, "sigma_t", 1.0)?;
-            let albedo = volume_param(n, "albedo", 0.75)?;
+            let grid = match n.child_named("albedo") {
+                Some(v) if v.tag == "volume" && v.plugin_type == "gridvolume" => Some(
+                    std::sync::Arc::new(volume::GridVolume::from_node(v, &|f| {
+                        std::path::PathBuf::from(f)
+                    })?),
+                ),
+                _ => None,
+            };
+            let albedo = if grid.is_some() {
+                Rgb::splat(0.75)
+            } else {
+                volume_param(n, "albedo", 0.75)?
+            };
             let scale = n.float("scale", 1.0)?;
             let sample_emitters = n.bool("sample_emitters", true)?;
             let _ = n.bool("has_spectral_extinction", true)?;
@@ -198,6 +222,7 @@ pub fn medium_from_node(n: &Node) -> Result<Medium> {
             ])?;
             let mut m = Homogeneous::new(sigma_t, albedo, scale, phase);
             m.sample_emitters = sample_emitters;
+            m.albedo_grid = grid;
             Ok(Medium::Homogeneous(m))
         }
         "heterogeneous" => Err(err(
@@ -408,8 +433,12 @@ mod tests {
                 "albedo",
             ),
             (
+                r#"<medium type="homogeneous"><volume type="gridvolume" name="sigma_t"><string name="filename" value="x.vol"/></volume></medium>"#,
+                "only its albedo",
+            ),
+            (
                 r#"<medium type="homogeneous"><volume type="gridvolume" name="albedo"><string name="filename" value="x.vol"/></volume></medium>"#,
-                "gridvolume",
+                "x.vol",
             ),
         ] {
             let e = parse(body).unwrap_err().to_string();

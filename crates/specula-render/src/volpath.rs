@@ -300,7 +300,7 @@ impl Scene {
                 let ff = m.sample_free_flight(ray.o, ray.d, t_max, hero, rng.next_f32());
                 let (FreeFlight::Scatter { value, pdf, .. } | FreeFlight::Pass { value, pdf }) = ff;
                 let ph = pdf[hero];
-                if !(ph > 0.0) {
+                if ph <= 0.0 || ph.is_nan() {
                     break;
                 }
                 throughput *= value / ph;

@@ -185,8 +185,10 @@ pub fn medium_from_node(n: &Node) -> Result<Medium> {
             let scale = n.float("scale", 1.0)?;
             let sample_emitters = n.bool("sample_emitters", true)?;
             let _ = n.bool("has_spectral_extinction", true)?;
-            if !(sigma_t.min_component() >= 0.0 && sigma_t.is_finite())
-                || !(scale >= 0.0 && scale.is_finite())
+            if !(sigma_t.min_component() >= 0.0
+                && sigma_t.is_finite()
+                && scale >= 0.0
+                && scale.is_finite())
             {
                 return Err(err(n, "sigma_t and scale must be finite and non-negative"));
             }

@@ -240,6 +240,7 @@ impl Scene {
     ) -> Rgb {
         match integrator {
             Integrator::Path(p) => self.li_path(p, ray, hit, rng, counters),
+            Integrator::Volpath(p) => self.li_volpath(p, ray, hit, rng, counters),
             Integrator::Direct(d) => self.li_direct(d, ray, hit, rng, counters),
             Integrator::Depth => {
                 counters.rays += 1;
@@ -398,6 +399,8 @@ impl Scene {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Integrator {
     Path(PathSettings),
+    /// Mitsuba's `volpath` (participating media; see [`crate::volpath`]).
+    Volpath(PathSettings),
     Direct(DirectSettings),
     Depth,
     Aov(AovSettings),

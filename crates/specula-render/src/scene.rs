@@ -196,6 +196,14 @@ pub struct Scene {
     pub seed: u64,
     pub sampler: SamplerSettings,
     pub integrator: Integrator,
+    /// Participating media ([`crate::media`]); shapes and the camera refer to them by index.
+    pub media: Vec<crate::media::Medium>,
+    /// Interior and exterior medium of each shape (Mitsuba's `interior`/`exterior`).
+    pub shape_media: Vec<crate::media::ShapeMedia>,
+    /// The medium the camera sits in.
+    pub camera_medium: Option<u32>,
+    /// The integrator is Mitsuba's `volpath` (with [`Scene::integrator`]'s settings).
+    pub volpath: bool,
 }
 
 impl Scene {
@@ -405,6 +413,7 @@ struct Parts {
     shape_light: Vec<Option<u32>>,
     bsdfs: Vec<Bsdf>,
     lights: Vec<Light>,
+    media: crate::media::SceneMedia,
 }
 
 impl Builder {
@@ -438,6 +447,7 @@ impl Builder {
             shape_light: vec![],
             bsdfs: vec![],
             lights: vec![],
+            media: Default::default(),
         };
         let mut integrator = Integrator::default();
         let mut sensor: Option<(Camera, Film, SamplerSettings)> = None;
@@ -455,8 +465,16 @@ impl Builder {
                 }
             }
             match child.tag.as_str() {
+                "integrator" if child.plugin_type == "volpath" => {
+                    parts.media.volpath = true;
+                    integrator = Integrator::Volpath(crate::volpath::settings_from_node(child)?);
+                }
                 "integrator" => integrator = self.integrator(child)?,
-                "sensor" => sensor = Some(self.sensor(child)?),
+                "sensor" => {
+                    parts.media.camera_medium = parts.media.attached(child, false)?.1;
+                    sensor = Some(self.sensor(child)?)
+                }
+                "medium" => parts.media.declare(child)?,
                 "bsdf" => {
                     let b = self.bsdf(child)?;
                     parts.bsdfs.push(b);
@@ -504,6 +522,7 @@ impl Builder {
             .filter(|(_, l)| matches!(l, Light::Other(e) if e.is_infinite()))
             .map(|(i, _)| i as u32)
             .collect();
+        parts.media.check_integrator(root)?;
         let accel = Bvh::build(&parts.geometry);
         Ok(Scene {
             geometry: parts.geometry,
@@ -519,6 +538,10 @@ impl Builder {
             seed: sampler.seed,
             sampler,
             integrator,
+            media: parts.media.media,
+            shape_media: parts.media.shape_media,
+            camera_medium: parts.media.camera_medium,
+            volpath: parts.media.volpath,
         })
     }
 
@@ -547,6 +570,7 @@ impl Builder {
         for c in &n.children {
             match c.tag.as_str() {
                 "film" => film = Some(self.film(c)?),
+                "medium" | "ref" => {} // the camera's medium (build() reads it)
                 "sampler" => sampler = self.sampler(c)?,
                 other => {
                     return Err(SceneError::new(
@@ -692,6 +716,9 @@ impl Builder {
 
     /// Convert an XML BSDF node into the material library's parameters and build it.
     fn bsdf(&self, n: &Node) -> Result<Bsdf> {
+        if n.plugin_type == "null" {
+            return crate::media::null_bsdf(n);
+        }
         let mut props = Props::new(n.plugin_type.clone(), loc_str(&n.loc));
         for p in &n.props {
             let v = match &p.value {
@@ -1005,6 +1032,8 @@ let mut data = match n.plugin_type.as_str() {
                     self.file_mesh_attributes(parts.bsdfs.len() as u32 - 1);
                     bsdf = Some(parts.bsdfs.len() as u32 - 1);
                 }
+                "medium" => {}
+                "ref" if matches!(c.name.as_deref(), Some("interior" | "exterior")) => {}
                 "ref" => {
                     let id = c.id.clone().unwrap_or_default();
                     match self.bsdf_ids.get(&id) {
@@ -1054,6 +1083,8 @@ let mut data = match n.plugin_type.as_str() {
         parts.geometry.push(geom);
         parts.shape_bsdf.push(bsdf);
         parts.shape_light.push(light);
+        let sm = parts.media.attached(n, true)?.0;
+        parts.media.shape_media.push(sm);
         Ok(())
     }
 }
@@ -1070,6 +1101,7 @@ impl Builder {
             shape_light: vec![],
             bsdfs: std::mem::take(&mut parts.bsdfs),
             lights: vec![],
+            media: Default::default(),
         };
         let mut result = Ok(());
         for c in &n.children {
@@ -1136,10 +1168,17 @@ impl Builder {
         let geometry: Vec<Geometry> = parts.geometry.drain(start..).collect();
         let bsdfs: Vec<u32> = parts.shape_bsdf.drain(start..).collect();
         let lights: Vec<Option<u32>> = parts.shape_light.drain(start..).collect();
+        let media: Vec<crate::media::ShapeMedia> = parts.media.shape_media.drain(start..).collect();
         // (bsdf, layout) → meshes, in order of first appearance
         let mut groups: Vec<((u32, (bool, bool, bool)), Vec<Geometry>)> = Vec::new();
-        for ((g, bsdf), light) in geometry.into_iter().zip(bsdfs).zip(lights) {
-            match (light, g.merge_key()) {
+        for (((g, bsdf), light), sm) in geometry.into_iter().zip(bsdfs).zip(lights).zip(media) {
+            // shapes that bound a medium keep their own identity
+            let key = if sm.is_transition() || sm != Default::default() {
+                None
+            } else {
+                g.merge_key()
+            };
+            match (light, key) {
                 (None, Some(k)) => match groups.iter_mut().find(|(key, _)| *key == (bsdf, k)) {
                     Some((_, list)) => list.push(g),
                     None => groups.push(((bsdf, k), vec![g])),
@@ -1153,6 +1192,7 @@ impl Builder {
                     parts.geometry.push(g);
                     parts.shape_bsdf.push(bsdf);
                     parts.shape_light.push(light);
+                    parts.media.shape_media.push(sm);
                 }
             }
         }
@@ -1162,6 +1202,7 @@ impl Builder {
             parts.geometry.push(merged);
             parts.shape_bsdf.push(bsdf);
             parts.shape_light.push(None);
+            parts.media.shape_media.push(Default::default());
         }
         Ok(())
     }
@@ -1196,6 +1237,7 @@ impl Builder {
             parts.geometry.push(g);
             parts.shape_bsdf.push(bsdf);
             parts.shape_light.push(None);
+            parts.media.shape_media.push(Default::default());
         }
         Ok(())
     }

@@ -102,9 +102,11 @@ impl AreaRadiance {
 /// Changes applied to a scene file as it loads.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LoadOptions {
-    /// Render at this film size (width, height) with the same field of view: exactly as if
-    /// every film's `width` and `height` were edited in the file and its crop window reset to
-    /// the full film (a sensor without a film gets an `hdrfilm` of this size).
+    /// Render at this film size (width, height) with the same horizontal field of view, as
+    /// Mitsuba does when a film is resized through `mi.traverse`: as if every film's `width`
+    /// and `height` were edited in the file, its crop window reset to the full film, and the
+    /// camera's field of view given as the horizontal one it had on the original film (a
+    /// sensor without a film gets an `hdrfilm` of this size).
     pub size: Option<(usize, usize)>,
 }
 
@@ -147,6 +149,7 @@ impl LoadOptions {
         }
         let mut ids = vec![];
         film_ids(root, &mut ids);
+        keep_horizontal_fov(root)?;
         fn walk(n: &mut Node, w: usize, h: usize, ids: &[String]) {
             if n.tag == "film" {
                 film_props(n, w, h);
@@ -175,6 +178,51 @@ impl LoadOptions {
         walk(root, w, h, &ids);
         Ok(())
     }
+}
+
+/// Mitsuba keeps a perspective camera's horizontal field of view when its film is resized
+/// (`mi.traverse`: the sensor's x fov was computed from the file's film and stays), which is
+/// how the docs-scene references at reduced size were made. So before `--size` changes the
+/// film, each `perspective`/`thinlens` sensor's `fov`/`fov_axis`/`focal_length` is replaced
+/// by the horizontal fov they give on the film as written (with `fov_axis="x"`, this is the
+/// same camera at the original size). With `fov_axis` `x` nothing changes; with the other
+/// axes, the same field of view on a film of a slightly different aspect.
+fn keep_horizontal_fov(root: &mut Node) -> Result<()> {
+    let mut stack: Vec<&mut Node> = vec![root];
+    while let Some(n) = stack.pop() {
+        if n.tag == "sensor" && matches!(n.plugin_type.as_str(), "perspective" | "thinlens") {
+            let film = n.children.iter().find(|c| c.tag == "film");
+            let dim = |name: &str, default: i64| -> i64 {
+                film.and_then(|f| f.props.iter().find(|p| p.name == name))
+                    .and_then(|p| match p.value {
+                        PropValue::Int(v) => Some(v),
+                        _ => None,
+                    })
+                    .unwrap_or(default)
+            };
+            let (w, h) = (dim("width", 768), dim("height", 576));
+            if w > 0 && h > 0 {
+                let t = crate::camera::parse_fov(n, w as f64 / h as f64)? as f64;
+                let fov_x = 2.0 * t.atan().to_degrees();
+                let loc = n
+                    .props
+                    .iter()
+                    .find(|p| matches!(p.name.as_str(), "fov" | "focal_length"))
+                    .map_or(n.loc.clone(), |p| p.loc.clone());
+                n.props
+                    .retain(|p| !matches!(p.name.as_str(), "fov" | "fov_axis" | "focal_length"));
+                n.props
+                    .push(crate::xml::Prop::new("fov", PropValue::Float(fov_x), loc.clone()));
+                n.props.push(crate::xml::Prop::new(
+                    "fov_axis",
+                    PropValue::Str("x".into()),
+                    loc,
+                ));
+            }
+        }
+        stack.extend(n.children.iter_mut());
+    }
+    Ok(())
 }
 
 pub struct Scene {

@@ -211,8 +211,11 @@ fn keep_horizontal_fov(root: &mut Node) -> Result<()> {
                     .map_or(n.loc.clone(), |p| p.loc.clone());
                 n.props
                     .retain(|p| !matches!(p.name.as_str(), "fov" | "fov_axis" | "focal_length"));
-                n.props
-                    .push(crate::xml::Prop::new("fov", PropValue::Float(fov_x), loc.clone()));
+                n.props.push(crate::xml::Prop::new(
+                    "fov",
+                    PropValue::Float(fov_x),
+                    loc.clone(),
+                ));
                 n.props.push(crate::xml::Prop::new(
                     "fov_axis",
                     PropValue::Str("x".into()),

@@ -115,7 +115,10 @@ fn size_option_equals_editing_the_film() {
     for s in [Vec2::ZERO, Vec2::new(0.3, 0.9), Vec2::ONE] {
         // the same camera up to float rounding of the field of view
         let (a, b) = (resized.camera.ray(s), by_hand.camera.ray(s));
-        assert!(a.o.abs_diff_eq(b.o, 1e-6) && a.d.abs_diff_eq(b.d, 1e-6), "{a:?} vs {b:?}");
+        assert!(
+            a.o.abs_diff_eq(b.o, 1e-6) && a.d.abs_diff_eq(b.d, 1e-6),
+            "{a:?} vs {b:?}"
+        );
     }
     // a sensor without a film gets one of the requested size
     let bare =

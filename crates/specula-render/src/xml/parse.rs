@@ -97,6 +97,7 @@ fn parse_main(
     let upgrade = parser.read_version(&doc, label, root, true)?;
     let ctx = FileCtx {
         doc: &doc,
+        lines: LineIndex::new(text),
         label: label.to_string(),
         dir: base_dir.to_path_buf(),
         upgrade,
@@ -318,12 +319,52 @@ fn parse_xml<'i>(text: &'i str, label: &str) -> Result<Document<'i>> {
     })
 }
 
+/// Byte offsets where the lines of a text start: an element's line and column in O(log n)
+/// (roxmltree's `text_pos_at` scans the text from its start, quadratic over a large scene).
+struct LineIndex {
+    starts: Vec<usize>,
+}
+
+impl LineIndex {
+    fn new(text: &str) -> Self {
+        let mut starts = vec![0];
+        starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
+        LineIndex { starts }
+    }
+
+    /// 1-based line and column (in characters) of byte offset `pos` of `text`, as
+    /// roxmltree's `text_pos_at` gives them.
+    fn loc(&self, text: &str, label: &str, pos: usize) -> Loc {
+        let line = self.starts.partition_point(|&s| s <= pos);
+        let start = self.starts[line - 1];
+        let col = text.get(start..pos).map_or(1, |t| t.chars().count() + 1);
+        Loc {
+            file: label.to_string(),
+            line: line as u32,
+            col: col as u32,
+        }
+    }
+}
+
 fn loc_of(doc: &Document, label: &str, n: roxmltree::Node) -> Loc {
     let p = doc.text_pos_at(n.range().start);
     Loc {
         file: label.to_string(),
         line: p.row,
         col: p.col,
+    }
+}
+
+#[cfg(test)]
+#[test]
+fn line_index_matches_roxmltree() {
+    let text = "<scene version=\"3.0.0\">\n  <shape type=\"sphere\"/>\r\n\t<!-- é -->\u{e9}<bsdf type=\"x\"/>\n\n<a/></scene>";
+    let doc = parse_xml(text, "t").unwrap();
+    let index = LineIndex::new(text);
+    for n in doc.descendants().filter(|n| n.is_element()) {
+        let p = doc.text_pos_at(n.range().start);
+        let l = index.loc(text, "t", n.range().start);
+        assert_eq!((l.line, l.col), (p.row, p.col), "{:?}", n.tag_name());
     }
 }
 
@@ -385,6 +426,8 @@ struct Parser {
 /// The file being parsed.
 struct FileCtx<'a, 'i> {
     doc: &'a Document<'i>,
+    /// Where each line of the document starts, for element locations.
+    lines: LineIndex,
     label: String,
     dir: PathBuf,
     /// Whether to apply the Mitsuba 0.6 → 3 upgrade (`version` < 2.0.0).
@@ -662,7 +705,9 @@ impl Parser {
 
     /// Reads an element: tag and attributes, substituted and (for 0.6 scenes) upgraded.
     fn elem(&mut self, ctx: &FileCtx, n: roxmltree::Node) -> Result<Elem> {
-        let loc = loc_of(ctx.doc, &ctx.label, n);
+        let loc = ctx
+            .lines
+            .loc(ctx.doc.input_text(), &ctx.label, n.range().start);
         let raw_tag = n.tag_name().name();
         let tag = if ctx.upgrade && raw_tag == "lookAt" {
             "lookat"
@@ -1203,6 +1248,7 @@ impl Parser {
         let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
         let ctx = FileCtx {
             doc: &doc,
+            lines: LineIndex::new(text),
             label: label.to_string(),
             dir,
             upgrade,

@@ -83,7 +83,7 @@ fn bad_spd_file_is_a_located_error() {
 fn scene_builder_reads_each_use_as_mitsuba() {
     use specula_bsdf::bsdf::SpectrumParam;
     use specula_bsdf::Bsdf;
-    use specula_render::scene::{Light, Scene};
+    use specula_render::scene::{AreaRadiance, Light, Scene};
     let dir = std::env::temp_dir().join(format!("specula-spectra-scene-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(
@@ -132,8 +132,12 @@ fn scene_builder_reads_each_use_as_mitsuba() {
     );
     assert_eq!(constant(&c.k), [0.5; 3]);
     let light = s.shape_light[2].expect("an emitter") as usize;
-    let Light::Area { radiance, .. } = &s.lights[light] else {
-        panic!("not an area light")
+    let Light::Area {
+        radiance: AreaRadiance::Rgb(radiance),
+        ..
+    } = &s.lights[light]
+    else {
+        panic!("not an area light of constant radiance")
     };
     assert!(
         close(

@@ -881,7 +881,8 @@ impl Builder {
         let bsdfs: Vec<u32> = parts.shape_bsdf.drain(start..).collect();
         let lights: Vec<Option<u32>> = parts.shape_light.drain(start..).collect();
         // (bsdf, layout) → meshes, in order of first appearance
-        let mut groups: Vec<((u32, (bool, bool, bool)), Vec<Geometry>)> = Vec::new();
+        type Key = (u32, (bool, bool, bool));
+        let mut groups: Vec<(Key, Vec<Geometry>)> = Vec::new();
         for ((g, bsdf), light) in geometry.into_iter().zip(bsdfs).zip(lights) {
             match (light, g.merge_key()) {
                 (None, Some(k)) => match groups.iter_mut().find(|(key, _)| *key == (bsdf, k)) {

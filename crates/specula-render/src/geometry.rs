@@ -51,9 +51,10 @@
 //!   Mitsuba's, which does not implement it).
 
 use crate::core::{Hit, PositionSample, Ray, Result, SceneError, SurfaceGeometry};
-use crate::mesh_io::MeshData;
+use crate::mesh_io::{MeshAttribute, MeshData};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use specula_bsdf::frame::Frame;
+use specula_bsdf::{Rgb, SurfaceData};
 use std::f32::consts::PI;
 use std::sync::Arc;
 
@@ -80,6 +81,8 @@ pub struct TriMesh {
     pub uvs: Option<Vec<Vec2>>,
     pub indices: Vec<[u32; 3]>,
     pub flip_normals: bool,
+    /// Vertex and face attributes of a PLY file (for `mesh_attribute`).
+    pub attributes: Vec<MeshAttribute>,
     /// Cumulative triangle areas (`cdf[i]` = area of triangles `0..=i`).
     cdf: Vec<f64>,
     /// First and last triangle with a non-zero area.
@@ -284,6 +287,7 @@ impl Geometry {
             normals,
             uvs,
             indices,
+            attributes,
         } = data;
         let positions: Vec<Vec3> = positions
             .into_iter()
@@ -302,13 +306,9 @@ impl Geometry {
         } else {
             Some(recompute_vertex_normals(&positions, &indices))
         };
-        Ok(Geometry::Mesh(TriMesh::new(
-            positions,
-            normals,
-            uvs,
-            indices,
-            flip_normals,
-        )))
+        let mut mesh = TriMesh::new(positions, normals, uvs, indices, flip_normals);
+        mesh.attributes = attributes;
+        Ok(Geometry::Mesh(mesh))
     }
 
     /// Mitsuba's `rectangle`: the square [-1, 1]² in the z = 0 plane, normal +z.
@@ -607,6 +607,7 @@ impl TriMesh {
             uvs,
             indices,
             flip_normals,
+            attributes: Vec::new(),
             cdf,
             valid: (first.min(last), last),
             area: sum as f32,
@@ -691,7 +692,7 @@ impl TriMesh {
         let p = p2 * b2 + (p1 * b1 + p0 * b0);
         let mut n = dp0.cross(dp1).normalize_or_zero();
         let index = || self.indices[tri].map(|k| k as usize);
-        let (uv, dp_du) = match &self.uvs {
+        let (uv, dp_du, dp_dv) = match &self.uvs {
             Some(uvs) => {
                 let [i0, i1, i2] = index();
                 let (uv0, uv1, uv2) = (uvs[i0], uvs[i1], uvs[i2]);
@@ -699,14 +700,19 @@ impl TriMesh {
                 let duv0 = uv1 - uv0;
                 let duv1 = uv2 - uv0;
                 let det = duv0.x * duv1.y - duv0.y * duv1.x;
-                let dp_du = if det != 0.0 {
-                    (dp0 * duv1.y - dp1 * duv0.y) * (1.0 / det)
+                let (dp_du, dp_dv) = if det != 0.0 {
+                    let inv = 1.0 / det;
+                    (
+                        (dp0 * duv1.y - dp1 * duv0.y) * inv,
+                        (dp1 * duv0.x - dp0 * duv1.x) * inv,
+                    )
                 } else {
-                    Frame::from_normal(n).s
+                    let f = Frame::from_normal(n);
+                    (f.s, f.t)
                 };
-                (uv, dp_du)
+                (uv, dp_du, dp_dv)
             }
-            None => (Vec2::new(b1, b2), dp0),
+            None => (Vec2::new(b1, b2), dp0, dp1),
         };
         let mut sn = match &self.normals {
             Some(ns) => {
@@ -729,26 +735,72 @@ impl TriMesh {
             n_geo: n,
             sh_frame: shading_frame(sn, dp_du),
             uv,
+            dp_du,
+            dp_dv,
         }
     }
 }
 
+impl TriMesh {
+    /// The attribute called `name`, if the mesh has it.
+    pub fn attribute(&self, name: &str) -> Option<&MeshAttribute> {
+        self.attributes.iter().find(|a| a.name == name)
+    }
+}
+
+impl SurfaceData for TriMesh {
+    /// Mitsuba's `Mesh::eval_attribute`: vertex attributes interpolated with the barycentrics
+    /// (b0 v0 + b1 v1 + b2 v2), face attributes constant per triangle; 1 channel in all three
+    /// (4-channel colours lose their alpha, which `mesh_attribute` refuses at load).
+    fn attribute(&self, name: &str, prim: u32, bary: Vec2) -> Option<Rgb> {
+        let a = TriMesh::attribute(self, name)?;
+        let d = a.dim;
+        let get = |i: usize| -> Rgb {
+            let v = &a.data[i * d..i * d + d];
+            if d >= 3 {
+                Rgb::new(v[0], v[1], v[2])
+            } else {
+                Rgb::splat(v[0])
+            }
+        };
+        let prim = prim as usize;
+        if a.is_face() {
+            return (prim < self.indices.len()).then(|| get(prim));
+        }
+        let [i0, i1, i2] = self.indices.get(prim)?.map(|k| k as usize);
+        let (b1, b2) = (bary.x, bary.y);
+        let b0 = 1.0 - b1 - b2;
+        Some(get(i0) * b0 + get(i1) * b1 + get(i2) * b2)
+    }
+}
+
 impl Sphere {
-    /// Local (unit sphere) coordinates of a world point, and its (uv, ∂p/∂u).
-    fn param(&self, p: Vec3) -> (Vec2, Vec3) {
+    /// The uv of a world point on the sphere, and ∂p/∂u, ∂p/∂v there (Mitsuba's: with `l`
+    /// the unit-sphere point, `2π M·(−l.y, l.x, 0)` and `π M·(l.z cos φ, l.z sin φ, −r)`,
+    /// r = √(l.x² + l.y²); at the poles ∂p/∂u = 0 and ∂p/∂v = `π M·(1, 0, 0)`).
+    fn param(&self, p: Vec3) -> (Vec2, Vec3, Vec3) {
         let local = self.to_object.transform_point3(p);
         let rd2 = local.x * local.x + local.y * local.y;
         let theta = unit_angle_z(local);
         let phi = phi_positive(local.y, local.x);
         let uv = Vec2::new(phi * INV_TWO_PI, theta * INV_PI);
-        let dp_du = if rd2 > 0.0 {
-            self.to_world
-                .transform_vector3(Vec3::new(-local.y, local.x, 0.0))
-                * (2.0 * PI)
+        let (dp_du, dp_dv) = if rd2 > 0.0 {
+            let rd = rd2.sqrt();
+            let (cos_phi, sin_phi) = (local.x / rd, local.y / rd);
+            (
+                self.to_world
+                    .transform_vector3(Vec3::new(-local.y, local.x, 0.0))
+                    * (2.0 * PI),
+                self.to_world.transform_vector3(Vec3::new(
+                    local.z * cos_phi,
+                    local.z * sin_phi,
+                    -rd,
+                )) * PI,
+            )
         } else {
-            Vec3::ZERO
+            (Vec3::ZERO, self.to_world.transform_vector3(Vec3::X) * PI)
         };
-        (uv, dp_du)
+        (uv, dp_du, dp_dv)
     }
 
     fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
@@ -756,7 +808,7 @@ impl Sphere {
         // Re-project onto the sphere (as Mitsuba does) to reduce the error of o + t·d.
         let mut n = (p - self.center).normalize_or(Vec3::Z);
         let p = self.center + n * self.radius;
-        let (uv, dp_du) = self.param(p);
+        let (uv, dp_du, dp_dv) = self.param(p);
         if self.flip_normals {
             n = -n;
         }
@@ -765,6 +817,8 @@ impl Sphere {
             n_geo: n,
             sh_frame: shading_frame(n, dp_du),
             uv,
+            dp_du,
+            dp_dv,
         }
     }
 
@@ -775,7 +829,7 @@ impl Sphere {
         let (s, c) = (2.0 * PI * u.x).sin_cos();
         let local = Vec3::new(r * c, r * s, z);
         let p = local * self.radius + self.center;
-        let (uv, _) = self.param(p);
+        let (uv, _, _) = self.param(p);
         let n = if self.flip_normals { -local } else { local };
         let area = self.area();
         PositionSample {
@@ -801,6 +855,7 @@ impl Disk {
         }
     }
 
+    /// Position, uv and ∂p/∂u of the object-space point (x, y).
     fn at_local(&self, x: f32, y: f32) -> (Vec3, Vec2, Vec3) {
         let p = self.to_world.transform_point3(Vec3::new(x, y, 0.0));
         let r = (x * x + y * y).sqrt();
@@ -816,13 +871,20 @@ impl Disk {
     }
 
     fn surface(&self, hit: &Hit) -> SurfaceGeometry {
-        let (p, uv, dp_du) = self.at_local(hit.u, hit.v);
+        let (x, y) = (hit.u, hit.v);
+        let (p, uv, dp_du) = self.at_local(x, y);
+        // ∂p/∂v with v = φ/2π: 2π·(−y, x, 0) in object space (Mitsuba's, zero at the centre)
+        let dp_dv = self
+            .to_world
+            .transform_vector3(Vec3::new(-y, x, 0.0) * (2.0 * PI));
         let n = self.normal();
         SurfaceGeometry {
             p,
             n_geo: n,
             sh_frame: shading_frame(n, dp_du),
             uv,
+            dp_du,
+            dp_dv,
         }
     }
 
@@ -877,6 +939,9 @@ impl Cylinder {
             n_geo: n,
             sh_frame: shading_frame(n, dp_du),
             uv,
+            dp_du,
+            // v is the object-space height
+            dp_dv: self.to_world.transform_vector3(Vec3::Z),
         }
     }
 
@@ -935,6 +1000,8 @@ impl Instance {
             n_geo,
             sh_frame: shading_frame(n, self.to_world.transform_vector3(s.sh_frame.s)),
             uv: s.uv,
+            dp_du: self.to_world.transform_vector3(s.dp_du),
+            dp_dv: self.to_world.transform_vector3(s.dp_dv),
         }
     }
 
@@ -1043,6 +1110,16 @@ impl Geometry {
             Geometry::Sphere(_) | Geometry::Disk(_) | Geometry::Cylinder(_) => 1,
             // the instance as a whole is one primitive, held by its first slot
             Geometry::Instance(i) => (i.member == 0) as usize,
+        }
+    }
+
+    /// The shape's per-primitive data for textures that read it (`mesh_attribute`): meshes
+    /// with attributes.
+    #[inline]
+    pub fn surface_data(&self) -> Option<&dyn SurfaceData> {
+        match self {
+            Geometry::Mesh(m) if !m.attributes.is_empty() => Some(m),
+            _ => None,
         }
     }
 
@@ -3379,6 +3456,7 @@ end_header
             normals: None,
             uvs: None,
             indices: vec![[0, 1, 2], [3, 4, 5]],
+            attributes: Vec::new(),
         };
         let g = Geometry::mesh(data, Mat4::IDENTITY, false, false).unwrap();
         assert!((g.area() - 4.0).abs() < 1e-6);
@@ -3406,6 +3484,7 @@ end_header
             normals: None,
             uvs: None,
             indices: vec![[0, 1, 3]],
+            attributes: Vec::new(),
         };
         let e = Geometry::mesh(data.clone(), Mat4::IDENTITY, false, false).unwrap_err();
         assert!(e.to_string().contains("vertex 3"), "{e}");

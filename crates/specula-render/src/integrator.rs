@@ -8,7 +8,7 @@ use crate::geometry::Geometry;
 use crate::scene::{Light, Scene};
 use glam::{Vec2, Vec3};
 use specula_bsdf::rng::Pcg32;
-use specula_bsdf::{BsdfContext, BsdfModel, Rgb, ShadingPoint};
+use specula_bsdf::{BsdfContext, BsdfModel, Rgb};
 
 use crate::accel::{offset_ray_origin, SHADOW_EPSILON};
 
@@ -135,7 +135,7 @@ impl Scene {
                     return Some(LightSample {
                         wi,
                         dist: t as f32,
-                        weight: *radiance / pdf,
+                        weight: radiance.eval_along(g, x, wi, t as f32) / pdf,
                         pdf,
                         is_delta: false,
                     });
@@ -157,7 +157,7 @@ impl Scene {
                 Some(LightSample {
                     wi,
                     dist,
-                    weight: *radiance / pdf,
+                    weight: radiance.eval(ps.uv, ps.p) / pdf,
                     pdf,
                     is_delta: false,
                 })
@@ -253,7 +253,7 @@ impl Scene {
                                 self.area_light_pdf(hit.shape, prev_p, si.p, si.n_geo),
                             )
                         };
-                        result += throughput * *radiance * w;
+                        result += throughput * radiance.eval(si.uv, si.p) * w;
                     }
                 }
             }
@@ -262,7 +262,7 @@ impl Scene {
                 break;
             }
             let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-            let sp = ShadingPoint { uv: si.uv, p: si.p };
+            let sp = si.shading_point(&hit, self.geometry[shape].surface_data());
             let flags = bsdf.flags();
 
             // next-event estimation

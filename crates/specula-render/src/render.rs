@@ -76,7 +76,7 @@ fn render_tile(
                 let n = (opts.spp - done).min(PACKET as u32) as usize;
                 for i in 0..n {
                     pos[i] = Vec2::new(x as f32 + rng.next_f32(), y as f32 + rng.next_f32());
-                    rays[i] = scene.camera.ray(pos[i] * inv);
+                    rays[i] = scene.camera.sample_ray(pos[i] * inv, || rng.next_vec2());
                 }
                 scene.accel.intersect_packet(&rays[..n], &mut hits[..n]);
                 for i in 0..n {

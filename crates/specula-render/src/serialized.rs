@@ -206,6 +206,7 @@ pub fn parse(bytes: &[u8], shape_index: i64) -> std::result::Result<MeshData, St
         normals,
         uvs,
         indices,
+        attributes: Vec::new(),
     };
     data.validate("the mesh")?;
     if data.indices.is_empty() {

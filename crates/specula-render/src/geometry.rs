@@ -45,10 +45,12 @@
 //!   group shape, so that a hit's shape index names the right BSDF), of which only the first
 //!   is put in the scene's BVH: one primitive whose box is the transformed group box and
 //!   whose intersection carries the ray into the group's BVH. The surface is the group
-//!   shape's, carried to world space: `p` by `to_world`, the normals by its inverse
-//!   transpose, `s` re-projected onto the tangent plane. Instances cannot emit (Mitsuba
-//!   forbids emitters in shape groups) and are never sampled by area (area 0, like
-//!   Mitsuba's, which does not implement it).
+//!   shape's, carried to world space: `p`, ∂p/∂u and ∂p/∂v by `to_world`, the normals by its
+//!   inverse transpose, `s` from the world ∂p/∂u (as Mitsuba's `instance`); `mesh_attribute`
+//!   reads the group shape's attributes. Instances cannot emit (Mitsuba forbids emitters in
+//!   shape groups) and are never sampled by area (area 0, like Mitsuba's, which does not
+//!   implement it). An instance costs one `Geometry` (a few hundred bytes) per group shape
+//!   and one primitive in the scene's BVH; the group's meshes and BVH exist once.
 
 use crate::core::{Hit, PositionSample, Ray, Result, SceneError, SurfaceGeometry};
 use crate::mesh_io::{MeshAttribute, MeshData};
@@ -995,12 +997,19 @@ impl Instance {
         let s = self.group.shapes[self.member as usize].surface(&local_ray, &inner);
         let n_geo = (self.nm * s.n_geo).normalize_or(s.n_geo);
         let n = (self.nm * s.sh_frame.n).normalize_or(n_geo);
+        let dp_du = self.to_world.transform_vector3(s.dp_du);
+        // s from the world ∂p/∂u, as Mitsuba; the group shape's own s where ∂p/∂u vanishes
+        let s_dir = if dp_du == Vec3::ZERO {
+            self.to_world.transform_vector3(s.sh_frame.s)
+        } else {
+            dp_du
+        };
         SurfaceGeometry {
             p: self.to_world.transform_point3(s.p),
             n_geo,
-            sh_frame: shading_frame(n, self.to_world.transform_vector3(s.sh_frame.s)),
+            sh_frame: shading_frame(n, s_dir),
             uv: s.uv,
-            dp_du: self.to_world.transform_vector3(s.dp_du),
+            dp_du,
             dp_dv: self.to_world.transform_vector3(s.dp_dv),
         }
     }
@@ -1119,6 +1128,8 @@ impl Geometry {
     pub fn surface_data(&self) -> Option<&dyn SurfaceData> {
         match self {
             Geometry::Mesh(m) if !m.attributes.is_empty() => Some(m),
+            // the group shape's (the hit's primitive is the group shape's)
+            Geometry::Instance(i) => i.group.shapes[i.member as usize].surface_data(),
             _ => None,
         }
     }
@@ -3138,6 +3149,7 @@ end_header
             normals: None,
             uvs: None,
             indices,
+            ..Default::default()
         };
         let mesh = Geometry::mesh(data, Mat4::IDENTITY, false, false).unwrap();
         let group = Arc::new(ShapeGroup::new(vec![mesh], vec![0]));

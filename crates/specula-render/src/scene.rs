@@ -6,6 +6,8 @@ use crate::core::{Loc, Ray, Result, SceneError};
 use crate::emitters::{Emitter, NamedTexture};
 use crate::film::{Film, RFilter};
 use crate::geometry::{Geometry, ShapeGroup};
+use crate::integrator::Integrator;
+use crate::sampler::SamplerSettings;
 use crate::texture::{Bitmap, Checkerboard, MeshAttributeTexture};
 use crate::xml::{Node, PropValue, Usage};
 use glam::{Mat4, Vec3};
@@ -188,9 +190,20 @@ pub struct Scene {
     pub accel: Bvh,
     pub camera: Camera,
     pub film: Film,
+    /// Samples per pixel: the sampler's `sample_count`, rounded as the sampler requires.
     pub spp: u32,
+    /// The sampler's `seed`.
     pub seed: u64,
-    pub integrator: PathSettings,
+    pub sampler: SamplerSettings,
+    pub integrator: Integrator,
+    /// Participating media ([`crate::media`]); shapes and the camera refer to them by index.
+    pub media: Vec<crate::media::Medium>,
+    /// Interior and exterior medium of each shape (Mitsuba's `interior`/`exterior`).
+    pub shape_media: Vec<crate::media::ShapeMedia>,
+    /// The medium the camera sits in.
+    pub camera_medium: Option<u32>,
+    /// The integrator is Mitsuba's `volpath` (with [`Scene::integrator`]'s settings).
+    pub volpath: bool,
 }
 
 impl Scene {
@@ -400,6 +413,7 @@ struct Parts {
     shape_light: Vec<Option<u32>>,
     bsdfs: Vec<Bsdf>,
     lights: Vec<Light>,
+    media: crate::media::SceneMedia,
 }
 
 impl Builder {
@@ -433,13 +447,10 @@ impl Builder {
             shape_light: vec![],
             bsdfs: vec![],
             lights: vec![],
+            media: Default::default(),
         };
-        let mut integrator = PathSettings {
-            max_depth: -1,
-            rr_depth: 5,
-            hide_emitters: false,
-        };
-        let mut sensor: Option<(Camera, Film, u32, u64)> = None;
+        let mut integrator = Integrator::default();
+        let mut sensor: Option<(Camera, Film, SamplerSettings)> = None;
         for child in &root.children {
             if let Some(id) = &child.id {
                 if child.tag != "ref" {
@@ -454,8 +465,16 @@ impl Builder {
                 }
             }
             match child.tag.as_str() {
+                "integrator" if child.plugin_type == "volpath" => {
+                    parts.media.volpath = true;
+                    integrator = Integrator::Volpath(crate::volpath::settings_from_node(child)?);
+                }
                 "integrator" => integrator = self.integrator(child)?,
-                "sensor" => sensor = Some(self.sensor(child)?),
+                "sensor" => {
+                    parts.media.camera_medium = parts.media.attached(child, false)?.1;
+                    sensor = Some(self.sensor(child)?)
+                }
+                "medium" => parts.media.declare(child)?,
                 "bsdf" => {
                     let b = self.bsdf(child)?;
                     parts.bsdfs.push(b);
@@ -484,7 +503,7 @@ impl Builder {
             }
         }
         root.check_unused(&[])?;
-        let Some((camera, film, spp, seed)) = sensor else {
+        let Some((camera, film, sampler)) = sensor else {
             return Err(SceneError::new(
                 Some(root.loc.clone()),
                 "the scene has no <sensor>",
@@ -503,6 +522,7 @@ impl Builder {
             .filter(|(_, l)| matches!(l, Light::Other(e) if e.is_infinite()))
             .map(|(i, _)| i as u32)
             .collect();
+        parts.media.check_integrator(root)?;
         let accel = Bvh::build(&parts.geometry);
         Ok(Scene {
             geometry: parts.geometry,
@@ -514,38 +534,27 @@ impl Builder {
             accel,
             camera,
             film,
-            spp,
-            seed,
+            spp: sampler.sample_count(sampler.sample_count),
+            seed: sampler.seed,
+            sampler,
             integrator,
+            media: parts.media.media,
+            shape_media: parts.media.shape_media,
+            camera_medium: parts.media.camera_medium,
+            volpath: parts.media.volpath,
         })
     }
 
-    fn integrator(&self, n: &Node) -> Result<PathSettings> {
-        if n.plugin_type != "path" {
-            return Err(SceneError::new(
-                Some(n.loc.clone()),
-                format!(
-                    "integrator '{}' is not supported (supported: path)",
-                    n.plugin_type
-                ),
-            ));
-        }
-        let s = PathSettings {
-            max_depth: n.int("max_depth", -1)? as i32,
-            rr_depth: n.int("rr_depth", 5)? as i32,
-            hide_emitters: n.bool("hide_emitters", false)?,
-        };
-        if s.max_depth < -1 || s.rr_depth <= 0 {
-            return Err(SceneError::new(
-                Some(n.loc.clone()),
-                "max_depth must be ≥ −1 and rr_depth ≥ 1",
-            ));
-        }
-        n.check_unused(&["max_depth", "rr_depth", "hide_emitters"])?;
-        Ok(s)
+    fn integrator(&self, n: &Node) -> Result<Integrator> {
+        Integrator::from_node(n)
     }
 
-    fn sensor(&self, n: &Node) -> Result<(Camera, Film, u32, u64)> {
+    /// A `<sampler>` (nested in a sensor).
+    fn sampler(&self, n: &Node) -> Result<SamplerSettings> {
+        SamplerSettings::from_node(n)
+    }
+
+    fn sensor(&self, n: &Node) -> Result<(Camera, Film, SamplerSettings)> {
         if !crate::camera::SENSORS.contains(&n.plugin_type.as_str()) {
             return Err(SceneError::new(
                 Some(n.loc.clone()),
@@ -557,51 +566,12 @@ impl Builder {
             ));
         }
         let mut film = None;
-        let mut spp = 4u32;
-        let mut seed = 0u64;
+        let mut sampler = SamplerSettings::default();
         for c in &n.children {
             match c.tag.as_str() {
                 "film" => film = Some(self.film(c)?),
-                "sampler" => {
-                    const SAMPLERS: [&str; 5] = [
-                        "independent",
-                        "stratified",
-                        "multijitter",
-                        "ldsampler",
-                        "orthogonal",
-                    ];
-                    if !SAMPLERS.contains(&c.plugin_type.as_str()) {
-                        return Err(SceneError::new(
-                            Some(c.loc.clone()),
-                            format!(
-                                "sampler '{}' is not supported (supported: {})",
-                                c.plugin_type,
-                                SAMPLERS.join(", ")
-                            ),
-                        ));
-                    }
-                    let count = c.int("sample_count", 4)?;
-                    if count <= 0 {
-                        return Err(SceneError::new(
-                            Some(c.loc.clone()),
-                            "sample_count must be positive",
-                        ));
-                    }
-                    spp = count as u32;
-                    seed = c.int("seed", 0)? as u64;
-                    c.check_unused(&[
-                        "sample_count",
-                        "seed",
-                        "jitter",
-                        "dimension",
-                        "scramble",
-                        "strength",
-                    ])?;
-                    // accepted for compatibility; Specula's independent sampler ignores them
-                    for p in ["jitter", "dimension", "scramble", "strength"] {
-                        let _ = c.prop(p);
-                    }
-                }
+                "medium" | "ref" => {} // the camera's medium (build() reads it)
+                "sampler" => sampler = self.sampler(c)?,
                 other => {
                     return Err(SceneError::new(
                         Some(c.loc.clone()),
@@ -619,7 +589,7 @@ impl Builder {
             ),
         };
         let cam = Camera::from_node(n, &window)?;
-        Ok((cam, film, spp, seed))
+        Ok((cam, film, sampler))
     }
 
     fn film(&self, n: &Node) -> Result<(Film, FilmWindow)> {
@@ -634,12 +604,7 @@ impl Builder {
         }
         let w = n.int("width", 768)?;
         let h = n.int("height", 576)?;
-        if w <= 0 || h <= 0 || w > 1 << 16 || h > 1 << 16 {
-            return Err(SceneError::new(
-                Some(n.loc.clone()),
-                format!("invalid film size {w}×{h}"),
-            ));
-        }
+        crate::film::check_film_size(w, h).map_err(|m| SceneError::new(Some(n.loc.clone()), m))?;
         for p in [
             "file_format",
             "pixel_format",
@@ -678,7 +643,10 @@ impl Builder {
         let f = match n.plugin_type.as_str() {
             "box" => RFilter::Box,
             "tent" => RFilter::Tent,
-            "gaussian" => RFilter::gaussian(n.float("stddev", 0.5)?),
+            "gaussian" => RFilter::gaussian_checked(n.float("stddev", 0.5)?).map_err(|m| {
+                let loc = n.prop("stddev").map_or(&n.loc, |p| &p.loc);
+                SceneError::new(Some(loc.clone()), m)
+            })?,
             other => {
                 return Err(SceneError::new(
                     Some(n.loc.clone()),
@@ -748,6 +716,9 @@ impl Builder {
 
     /// Convert an XML BSDF node into the material library's parameters and build it.
     fn bsdf(&self, n: &Node) -> Result<Bsdf> {
+        if n.plugin_type == "null" {
+            return crate::media::null_bsdf(n);
+        }
         let mut props = Props::new(n.plugin_type.clone(), loc_str(&n.loc));
         for p in &n.props {
             let v = match &p.value {
@@ -958,7 +929,7 @@ impl Builder {
             )));
         }
         let radiance = match textures.as_slice() {
-            [] => AreaRadiance::Rgb(Rgb(c.emission_rgb("radiance", [1.0; 3])?)),
+            [] => AreaRadiance::Rgb(crate::emitters::light_rgb(c, "radiance")?),
             [t] if t.name == "radiance" && !c.has("radiance") => {
                 AreaRadiance::Texture(t.texture.clone())
             }
@@ -1061,6 +1032,8 @@ let mut data = match n.plugin_type.as_str() {
                     self.file_mesh_attributes(parts.bsdfs.len() as u32 - 1);
                     bsdf = Some(parts.bsdfs.len() as u32 - 1);
                 }
+                "medium" => {}
+                "ref" if matches!(c.name.as_deref(), Some("interior" | "exterior")) => {}
                 "ref" => {
                     let id = c.id.clone().unwrap_or_default();
                     match self.bsdf_ids.get(&id) {
@@ -1110,6 +1083,8 @@ let mut data = match n.plugin_type.as_str() {
         parts.geometry.push(geom);
         parts.shape_bsdf.push(bsdf);
         parts.shape_light.push(light);
+        let sm = parts.media.attached(n, true)?.0;
+        parts.media.shape_media.push(sm);
         Ok(())
     }
 }
@@ -1126,6 +1101,7 @@ impl Builder {
             shape_light: vec![],
             bsdfs: std::mem::take(&mut parts.bsdfs),
             lights: vec![],
+            media: Default::default(),
         };
         let mut result = Ok(());
         for c in &n.children {
@@ -1192,11 +1168,18 @@ impl Builder {
         let geometry: Vec<Geometry> = parts.geometry.drain(start..).collect();
         let bsdfs: Vec<u32> = parts.shape_bsdf.drain(start..).collect();
         let lights: Vec<Option<u32>> = parts.shape_light.drain(start..).collect();
+        let media: Vec<crate::media::ShapeMedia> = parts.media.shape_media.drain(start..).collect();
         // (bsdf, layout) → meshes, in order of first appearance
         type Key = (u32, (bool, bool, bool));
         let mut groups: Vec<(Key, Vec<Geometry>)> = Vec::new();
-        for ((g, bsdf), light) in geometry.into_iter().zip(bsdfs).zip(lights) {
-            match (light, g.merge_key()) {
+        for (((g, bsdf), light), sm) in geometry.into_iter().zip(bsdfs).zip(lights).zip(media) {
+            // shapes that bound a medium keep their own identity
+            let key = if sm.is_transition() || sm != Default::default() {
+                None
+            } else {
+                g.merge_key()
+            };
+            match (light, key) {
                 (None, Some(k)) => match groups.iter_mut().find(|(key, _)| *key == (bsdf, k)) {
                     Some((_, list)) => list.push(g),
                     None => groups.push(((bsdf, k), vec![g])),
@@ -1210,6 +1193,7 @@ impl Builder {
                     parts.geometry.push(g);
                     parts.shape_bsdf.push(bsdf);
                     parts.shape_light.push(light);
+                    parts.media.shape_media.push(sm);
                 }
             }
         }
@@ -1219,6 +1203,7 @@ impl Builder {
             parts.geometry.push(merged);
             parts.shape_bsdf.push(bsdf);
             parts.shape_light.push(None);
+            parts.media.shape_media.push(Default::default());
         }
         Ok(())
     }
@@ -1253,6 +1238,7 @@ impl Builder {
             parts.geometry.push(g);
             parts.shape_bsdf.push(bsdf);
             parts.shape_light.push(None);
+            parts.media.shape_media.push(Default::default());
         }
         Ok(())
     }

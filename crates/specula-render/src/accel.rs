@@ -2322,6 +2322,7 @@ mod tests {
                 normals: None,
                 uvs: None,
                 indices,
+                ..Default::default()
             };
             Geometry::mesh(data, m, false, false).unwrap()
         };

@@ -1862,7 +1862,7 @@ fn intersect_cylinder(ray: &Ray, m: &Mat3, tr: Vec3, t_max: f32) -> Option<f32> 
     let b = 2.0 * (d.x * o.x + d.y * o.y);
     let c = o.x * o.x + o.y * o.y - 1.0;
     let disc = b * b - 4.0 * a * c;
-    if a == 0.0 || !(disc >= 0.0) {
+    if a == 0.0 || disc.is_nan() || disc < 0.0 {
         return None;
     }
     let q = -0.5 * (b + disc.sqrt().copysign(b));

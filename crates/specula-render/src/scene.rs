@@ -1221,7 +1221,8 @@ impl Builder {
         let lights: Vec<Option<u32>> = parts.shape_light.drain(start..).collect();
         let media: Vec<crate::media::ShapeMedia> = parts.media.shape_media.drain(start..).collect();
         // (bsdf, layout) → meshes, in order of first appearance
-        let mut groups: Vec<((u32, (bool, bool, bool)), Vec<Geometry>)> = Vec::new();
+        type Key = (u32, (bool, bool, bool));
+        let mut groups: Vec<(Key, Vec<Geometry>)> = Vec::new();
         for (((g, bsdf), light), sm) in geometry.into_iter().zip(bsdfs).zip(lights).zip(media) {
             // shapes that bound a medium keep their own identity
             let key = if sm.is_transition() || sm != Default::default() {

@@ -307,9 +307,9 @@ mod tests {
             out.extend(MAGIC.to_le_bytes());
             out.extend(version.to_le_bytes());
             let mut body = Vec::new();
-            let flags = (m.n.is_some() as u32) * HAS_NORMALS
-                | (m.uv.is_some() as u32) * HAS_TEXCOORDS
-                | (m.colors as u32) * HAS_COLORS
+            let flags = ((m.n.is_some() as u32) * HAS_NORMALS)
+                | ((m.uv.is_some() as u32) * HAS_TEXCOORDS)
+                | ((m.colors as u32) * HAS_COLORS)
                 | if double { DOUBLE_PRECISION } else { 0x1000 };
             body.extend(flags.to_le_bytes());
             if version == 4 {

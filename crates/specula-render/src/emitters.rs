@@ -13,9 +13,9 @@
 //! - `directional`: `irradiance` arriving from −direction, where direction is `direction` or
 //!   `to_world` · (0, 0, 1).
 //! - `constant`: uniform-sphere sampling, pdf 1/4π.
-//! - `spot`: a point light at the `to_world` origin shining along its +z: `intensity` (default
-//!   1) / dist² × falloff(θ) × `texture`(uv) (optional, nested or referenced). The falloff is
-//!   1 up to `beam_width` (degrees, default ¾ `cutoff_angle`), falls linearly *in angle* to 0
+//! - `spot`: a point light at the `to_world` origin shining along its +z: `intensity`
+//!   (default 1) / dist² × falloff(θ) × `texture`(uv) (optional, nested or referenced). The
+//!   falloff is 1 up to `beam_width` (degrees, default ¾ `cutoff_angle`), falls linearly *in angle* to 0
 //!   at `cutoff_angle` (degrees, default 20; must lie in (0, 180)), and is 0 beyond (strictly:
 //!   cos θ > cos cutoff). The texture is looked up at uv = ½ + ½ (x, y) / (z tan cutoff) of the
 //!   local direction (x, y, z) (u grows towards local +x, v towards +y; no flip). θ comes from
@@ -661,14 +661,15 @@ impl SpotLight {
     pub fn falloff(&self, local: Vec3) -> Rgb {
         let d = local.normalize_or_zero();
         let cos_t = d.z;
-        if !(cos_t > self.cos_cutoff) {
+        // (NaN fails too)
+        if cos_t.is_nan() || cos_t <= self.cos_cutoff {
             return Rgb::ZERO;
         }
         let mut v = self.intensity;
         if let Some(t) = &self.texture {
             let k = 0.5 / (d.z * self.uv_factor);
             let uv = Vec2::new(0.5 + d.x * k, 0.5 + d.y * k);
-            v = v * t.eval(&ShadingPoint { uv, p: Vec3::ZERO });
+            v *= t.eval(&ShadingPoint { uv, p: Vec3::ZERO });
         }
         if cos_t >= self.cos_beam {
             v
@@ -746,7 +747,7 @@ impl ProjectorLight {
 
     fn sample(&self, ref_p: Vec3) -> Option<DirectionSample> {
         let local = self.to_local.transform_point3(ref_p);
-        if !(local.z > 0.0) {
+        if local.z.is_nan() || local.z <= 0.0 {
             return None;
         }
         let k = 0.5 / (local.z * self.tan_half_x);
@@ -761,7 +762,7 @@ impl ProjectorLight {
         }
         let wi = d / dist;
         let cos = -self.n_world.dot(wi);
-        if !(cos > 0.0) {
+        if cos.is_nan() || cos <= 0.0 {
             return None;
         }
         let e = match &self.texture {
@@ -1402,8 +1403,8 @@ mod tests {
             ([-0.3, 0.2, 1.0], [0.0, 3.33956, 0.0]),
             ([0.3, -0.2, 1.0], [0.0, 0.0, 3.33956]),
             ([-0.3, -0.2, 1.0], [3.33956; 3]),
-            ([0.0, 0.0, 1.0], [3.14159; 3]),
-            ([0.0, 0.0, 2.0], [0.785398; 3]),
+            ([0.0, 0.0, 1.0], [PI; 3]),
+            ([0.0, 0.0, 2.0], [std::f32::consts::FRAC_PI_4; 3]),
             ([0.5, 0.0, 1.0], [0.0; 3]),
             ([0.0, 0.0, -1.0], [0.0; 3]),
             ([0.36, 0.0, 1.0], [0.0, 0.0, 3.33897]),

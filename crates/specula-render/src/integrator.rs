@@ -8,7 +8,7 @@ use crate::geometry::Geometry;
 use crate::scene::{Light, Scene};
 use glam::{Vec2, Vec3};
 use specula_bsdf::rng::Pcg32;
-use specula_bsdf::{BsdfContext, BsdfModel, Rgb, ShadingPoint};
+use specula_bsdf::{BsdfContext, BsdfModel, Rgb};
 
 use crate::accel::{offset_ray_origin, SHADOW_EPSILON};
 
@@ -262,7 +262,7 @@ impl Scene {
                 break;
             }
             let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-            let sp = ShadingPoint { uv: si.uv, p: si.p };
+            let sp = si.shading_point(&hit, self.geometry[shape].surface_data());
             let flags = bsdf.flags();
 
             // next-event estimation

@@ -24,5 +24,6 @@ pub mod mesh_io;
 pub mod metrics;
 pub mod render;
 pub mod scene;
+pub mod serialized;
 pub mod texture;
 pub mod xml;

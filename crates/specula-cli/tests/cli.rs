@@ -199,6 +199,37 @@ fn render_writes_png_and_exr_with_overrides() {
 }
 
 #[test]
+fn render_size_resizes_the_film() {
+    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../specula-render/tests/data/sensors_emitters/perspective_ppo_crop.xml");
+    let dir = std::env::temp_dir().join(format!("specula-cli-size-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("small.exr");
+    let o = specula(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--size",
+        "20x15",
+        "--spp",
+        "1",
+        "--quiet",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // the file's 64×48 crop window of an 80×60 film becomes the whole 20×15 film
+    assert!(stdout(&o).contains("20×15 at 1 spp"), "{}", stdout(&o));
+    let (img, _) = specula_render::image_io::read_image(&out).unwrap();
+    assert_eq!((img.width, img.height), (20, 15));
+    for bad in ["20", "0x15", "20x15x3", "axb"] {
+        let o = specula(&["render", scene.to_str().unwrap(), "--size", bad]);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {}", stderr(&o));
+        assert!(stderr(&o).contains("--size"), "{bad}: {}", stderr(&o));
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn render_reports_bad_scenes_with_their_location() {
     let dir = std::env::temp_dir().join(format!("specula-cli-bad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

@@ -133,7 +133,7 @@ pub fn parse_fov(n: &Node, aspect: f64) -> Result<f32> {
         };
     let t = tan_half_fov_x(fov, axis, aspect);
     let fov_x = 2.0 * t.atan().to_degrees();
-    if !(fov_x > 0.0 && fov_x < 180.0) || !t.is_finite() {
+    if !(fov_x > 0.0 && fov_x < 180.0 && t.is_finite()) {
         return Err(n.error(format!(
             "the horizontal field of view must lie in (0, 180) degrees, got {fov_x}"
         )));
@@ -415,10 +415,10 @@ impl Camera {
         let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         let near = n.float("near_clip", 1e-2)?;
         let far = n.float("far_clip", 1e4)?;
-        if !(near > 0.0) || !near.is_finite() {
+        if near.is_nan() || near <= 0.0 || !near.is_finite() {
             return Err(n.error(format!("near_clip must be positive, got {near}")));
         }
-        if !(near < far) || !far.is_finite() {
+        if far.is_nan() || near >= far || !far.is_finite() {
             return Err(n.error(format!(
                 "near_clip ({near}) must be smaller than far_clip ({far})"
             )));
@@ -475,7 +475,7 @@ impl Camera {
                             n.error(format!("aperture_radius must be finite, got {radius}"))
                         );
                     }
-                    if !(focus > 0.0) {
+                    if focus <= 0.0 {
                         return Err(
                             n.error(format!("focus_distance must be positive, got {focus}"))
                         );
@@ -513,7 +513,7 @@ impl Camera {
             }
             "orthographic" => {
                 let d = to_world.transform_vector3(Vec3::Z);
-                if !(d.length_squared() > 0.0) {
+                if d.length_squared() <= 0.0 || !d.is_finite() {
                     return Err(n.error("the orthographic camera's to_world is singular"));
                 }
                 n.check_unused(&COMMON)?;

@@ -13,9 +13,9 @@
 //! - `directional`: `irradiance` arriving from −direction, where direction is `direction` or
 //!   `to_world` · (0, 0, 1).
 //! - `constant`: uniform-sphere sampling, pdf 1/4π.
-//! - `spot`: a point light at the `to_world` origin shining along its +z: `intensity` (default
-//!   1) / dist² × falloff(θ) × `texture`(uv) (optional, nested or referenced). The falloff is
-//!   1 up to `beam_width` (degrees, default ¾ `cutoff_angle`), falls linearly *in angle* to 0
+//! - `spot`: a point light at the `to_world` origin shining along its +z: `intensity`
+//!   (default 1) / dist² × falloff(θ) × `texture`(uv) (optional, nested or referenced). The
+//!   falloff is 1 up to `beam_width` (degrees, default ¾ `cutoff_angle`), falls linearly *in angle* to 0
 //!   at `cutoff_angle` (degrees, default 20; must lie in (0, 180)), and is 0 beyond (strictly:
 //!   cos θ > cos cutoff). The texture is looked up at uv = ½ + ½ (x, y) / (z tan cutoff) of the
 //!   local direction (x, y, z) (u grows towards local +x, v towards +y; no flip). θ comes from
@@ -677,14 +677,15 @@ impl SpotLight {
     pub fn falloff(&self, local: Vec3) -> Rgb {
         let d = local.normalize_or_zero();
         let cos_t = d.z;
-        if !(cos_t > self.cos_cutoff) {
+        // (NaN fails too)
+        if cos_t.is_nan() || cos_t <= self.cos_cutoff {
             return Rgb::ZERO;
         }
         let mut v = self.intensity;
         if let Some(t) = &self.texture {
             let k = 0.5 / (d.z * self.uv_factor);
             let uv = Vec2::new(0.5 + d.x * k, 0.5 + d.y * k);
-            v = v * t.eval(&ShadingPoint {
+            v *= t.eval(&ShadingPoint {
                 uv,
                 ..Default::default()
             });
@@ -765,7 +766,7 @@ impl ProjectorLight {
 
     fn sample(&self, ref_p: Vec3) -> Option<DirectionSample> {
         let local = self.to_local.transform_point3(ref_p);
-        if !(local.z > 0.0) {
+        if local.z.is_nan() || local.z <= 0.0 {
             return None;
         }
         let k = 0.5 / (local.z * self.tan_half_x);
@@ -780,7 +781,7 @@ impl ProjectorLight {
         }
         let wi = d / dist;
         let cos = -self.n_world.dot(wi);
-        if !(cos > 0.0) {
+        if cos.is_nan() || cos <= 0.0 {
             return None;
         }
         let e = match &self.texture {
@@ -1342,5 +1343,212 @@ mod tests {
         }
         assert!((mean / 10_000.0).length() < 0.03);
         assert!(!c.is_delta() && c.is_infinite());
+    }
+
+    /// A 2×2 nearest-neighbour texture: red, green / blue, white (top row first), or a
+    /// constant w×h one.
+    fn tex(w: usize, h: usize) -> Arc<dyn Texture> {
+        use crate::texture::{Bitmap, FilterType, WrapMode};
+        let data = if (w, h) == (2, 2) {
+            vec![1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.]
+        } else {
+            vec![1.0; w * h * 3]
+        };
+        let img = Image {
+            width: w,
+            height: h,
+            channels: 3,
+            data,
+        };
+        Arc::new(Bitmap::from_image(
+            &img,
+            false,
+            FilterType::parse("nearest").unwrap(),
+            WrapMode::parse("repeat").unwrap(),
+            false,
+            Mat3::IDENTITY,
+        ))
+    }
+
+    fn at(e: &Emitter, p: [f32; 3]) -> Rgb {
+        e.sample_direction(Vec3::from(p), Vec2::splat(0.5))
+            .map_or(Rgb::ZERO, |s| {
+                assert!(s.is_delta && s.pdf == 1.0);
+                assert!((s.wi * s.dist + Vec3::from(p) - e_position(e)).length() < 1e-5);
+                s.radiance
+            })
+    }
+
+    fn e_position(e: &Emitter) -> Vec3 {
+        match e {
+            Emitter::Spot(l) => l.position,
+            Emitter::Projector(l) => l.position,
+            _ => unreachable!(),
+        }
+    }
+
+    #[test]
+    fn spot_matches_mitsuba() {
+        // Mitsuba 3.9.1 scalar_rgb: spot at the origin along +z, intensity (1, 2, 3), cutoff
+        // 30° (beam 22.5°), seen from distance 2 at angle θ: sample_direction's weight.
+        let e = node(r#"<emitter type="spot"><rgb name="intensity" value="1, 2, 3"/><float name="cutoff_angle" value="30"/></emitter>"#).unwrap();
+        assert!(e.is_delta() && !e.is_infinite());
+        for (deg, want) in [
+            (0.0f32, [0.25, 0.5, 0.75]),
+            (20.0, [0.25, 0.5, 0.75]),
+            (22.5, [0.25, 0.5, 0.75]),
+            (25.0, [0.166667, 0.333334, 0.500001]),
+            (29.0, [0.0333335, 0.066667, 0.1]),
+            (29.9, [0.00333336, 0.00666672, 0.0100001]),
+            (30.0, [0.0; 3]),
+            (31.0, [0.0; 3]),
+        ] {
+            let t = deg.to_radians();
+            let got = at(&e, [2.0 * t.sin(), 0.0, 2.0 * t.cos()]);
+            assert!(close(got, want, 2e-4), "{deg}: {got:?}");
+        }
+        // the 1/dist² is in world units: translate (1, 0, 0) · scale 2, seen from (1, 0, 2)
+        let e = node(r#"<emitter type="spot"><transform name="to_world"><scale value="2"/><translate x="1"/></transform></emitter>"#).unwrap();
+        assert!(close(at(&e, [1.0, 0.0, 2.0]), [0.25; 3], 1e-5));
+        // a negative beam_width (which Mitsuba takes as a falloff starting before 0°) is refused
+        let e = node(r#"<emitter type="spot"><float name="beam_width" value="-5"/></emitter>"#);
+        assert!(e.unwrap_err().to_string().contains("beam_width"));
+        // textured: uv = ½ + ½ (x, y) / (z tan cutoff), no flip
+        let spot = SpotLight::new(&Mat4::IDENTITY, Rgb::ONE, 30.0, 22.5, Some(tex(2, 2))).unwrap();
+        let e = Emitter::Spot(Box::new(spot));
+        for (p, want) in [
+            ([0.3, 0.3, 1.0], [0.792119; 3]),
+            ([-0.3, 0.3, 1.0], [0.0, 0.0, 0.792119]),
+            ([0.3, -0.3, 1.0], [0.0, 0.792119, 0.0]),
+            ([-0.3, -0.3, 1.0], [0.792119, 0.0, 0.0]),
+            ([0.5, 0.0, 1.0], [0.366396; 3]),
+        ] {
+            assert!(close(at(&e, p), want, 2e-5), "{p:?}: {:?}", at(&e, p));
+        }
+    }
+
+    #[test]
+    fn projector_matches_mitsuba() {
+        // Mitsuba 3.9.1 scalar_rgb: projector at the origin along +z; weights of
+        // sample_direction from the given points.
+        let proj = |texture, irradiance: Rgb, scale: f32, fov: f32, aspect: f32, m: Mat4| {
+            let t =
+                crate::camera::tan_half_fov_x(fov as f64, crate::camera::FovAxis::X, aspect as f64)
+                    as f32;
+            Emitter::Projector(Box::new(
+                ProjectorLight::new(&m, irradiance, texture, scale, t, aspect).unwrap(),
+            ))
+        };
+        let e = proj(Some(tex(2, 2)), Rgb::ONE, 1.0, 40.0, 1.0, Mat4::IDENTITY);
+        assert!(e.is_delta() && !e.is_infinite());
+        for (p, want) in [
+            ([0.3, 0.2, 1.0], [3.33956, 0.0, 0.0]),
+            ([-0.3, 0.2, 1.0], [0.0, 3.33956, 0.0]),
+            ([0.3, -0.2, 1.0], [0.0, 0.0, 3.33956]),
+            ([-0.3, -0.2, 1.0], [3.33956; 3]),
+            ([0.0, 0.0, 1.0], [PI; 3]),
+            ([0.0, 0.0, 2.0], [std::f32::consts::FRAC_PI_4; 3]),
+            ([0.5, 0.0, 1.0], [0.0; 3]),
+            ([0.0, 0.0, -1.0], [0.0; 3]),
+            ([0.36, 0.0, 1.0], [0.0, 0.0, 3.33897]),
+            ([0.37, 0.0, 1.0], [0.0; 3]),
+        ] {
+            assert!(close(at(&e, p), want, 2e-5), "{p:?}: {:?}", at(&e, p));
+        }
+        let e = proj(
+            None,
+            Rgb::new(1.0, 2.0, 3.0),
+            2.0,
+            40.0,
+            1.0,
+            Mat4::IDENTITY,
+        );
+        assert!(close(
+            at(&e, [0.2, 0.1, 1.0]),
+            [6.43835, 12.8767, 19.315],
+            2e-5
+        ));
+        // a 30×10 image: the aspect ratio narrows the vertical field of view
+        let e = proj(Some(tex(30, 10)), Rgb::ONE, 1.0, 40.0, 3.0, Mat4::IDENTITY);
+        assert!(close(at(&e, [0.2, 0.1, 1.0]), [3.21917; 3], 2e-5));
+        assert_eq!(at(&e, [0.0, 0.2, 1.0]), Rgb::ZERO);
+        // a scaled to_world: Mitsuba's unnormalised normal and local depth
+        let m = Mat4::from_scale(Vec3::splat(2.0));
+        let e = proj(None, Rgb::ONE, 1.0, 40.0, 1.0, m);
+        assert!(close(at(&e, [0.2, 0.1, 1.0]), [6.43835; 3], 2e-5));
+        // from XML: focal length 35 mm on a 30×10 image, translated and rotated
+        let root = crate::xml::parse_scene_str(
+            r#"<scene version="3.0.0"><emitter type="projector"><string name="focal_length" value="35mm"/><transform name="to_world"><rotate y="1" angle="30"/><translate x="1" y="2" z="3"/></transform></emitter></scene>"#,
+            "test.xml",
+            Path::new("."),
+            &[],
+        )
+        .unwrap();
+        let textures = [NamedTexture {
+            name: "irradiance".into(),
+            texture: tex(30, 10),
+            loc: Loc::default(),
+        }];
+        let e = Emitter::from_node_textured(&root.children[0], Path::new("."), &textures).unwrap();
+        assert!(close(at(&e, [1.5, 2.1, 4.0]), [2.53696; 3], 2e-5));
+        // a texture under another name is an error at that texture
+        let bad = [NamedTexture {
+            name: "radiance".into(),
+            texture: tex(2, 2),
+            loc: Loc {
+                file: "x.xml".into(),
+                line: 3,
+                col: 4,
+            },
+        }];
+        let err = Emitter::from_node_textured(&root.children[0], Path::new("."), &bad).unwrap_err();
+        assert!(
+            err.to_string().contains("x.xml:3:4") && err.to_string().contains("irradiance"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn spot_and_projector_parameters_are_checked() {
+        for (body, want) in [
+            (
+                r#"<emitter type="spot"><float name="cutoff_angle" value="0"/></emitter>"#,
+                "cutoff_angle",
+            ),
+            (
+                r#"<emitter type="spot"><float name="cutoff_angle" value="180"/></emitter>"#,
+                "cutoff_angle",
+            ),
+            (
+                r#"<emitter type="spot"><float name="cutoff"  value="10"/></emitter>"#,
+                "cutoff",
+            ),
+            (
+                r#"<emitter type="spot"><transform name="to_world"><scale value="0"/></transform></emitter>"#,
+                "singular",
+            ),
+            (
+                r#"<emitter type="projector"><float name="fov" value="30"/><string name="focal_length" value="50mm"/></emitter>"#,
+                "not both",
+            ),
+            (
+                r#"<emitter type="projector"><float name="fov" value="190"/></emitter>"#,
+                "(0, 180)",
+            ),
+            (
+                r#"<emitter type="projector"><float name="intensity" value="1"/></emitter>"#,
+                "intensity",
+            ),
+        ] {
+            let err = node(body).unwrap_err().to_string();
+            assert!(
+                err.contains(want) && err.contains("test.xml:2:"),
+                "{body}: {err}"
+            );
+        }
+        // a beam wider than the cutoff is a hard edge at the cutoff (as in Mitsuba)
+        let e = node(r#"<emitter type="spot"><float name="cutoff_angle" value="20"/><float name="beam_width" value="25"/></emitter>"#).unwrap();
+        let t = 19f32.to_radians();
+        assert!(close(at(&e, [t.sin(), 0.0, t.cos()]), [1.0; 3], 1e-5));
     }
 }

@@ -72,8 +72,9 @@ impl AreaRadiance {
         }
     }
 
-    /// Radiance at the point `o + t·d` where a ray meets the (analytic) shape `g`: the point's
-    /// uv is only computed for a textured radiance.
+    /// Radiance at the point `o + t·d` where a ray meets the sphere `g` (a shape whose surface
+    /// point follows from the ray alone; not a mesh, which needs the hit's barycentrics): the
+    /// point's uv is only computed for a textured radiance.
     #[inline]
     pub fn eval_along(&self, g: &Geometry, o: Vec3, d: Vec3, t: f32) -> Rgb {
         match self {
@@ -1329,5 +1330,95 @@ mod from_xml_str_tests {
         .err()
         .unwrap();
         assert!(e.to_string().contains("<test>:2:"), "{e}");
+    }
+
+    #[test]
+    fn area_emitters_with_textured_radiance() {
+        let scene = |emitter: &str| {
+            let text = format!(
+                r#"<scene version="3.0.0">
+    <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film></sensor>
+    <texture type="checkerboard" id="tex"><rgb name="color0" value="1, 0, 0"/><rgb name="color1" value="0, 0, 1"/></texture>
+    <shape type="rectangle">{emitter}</shape>
+    <shape type="sphere"><point name="center" value="0, 0, 5"/>{emitter}</shape>
+</scene>"#
+            );
+            Scene::from_xml_str(&text, "<test>", Path::new("."), &[])
+        };
+        let nested = r#"<emitter type="area"><texture type="checkerboard" name="radiance"><rgb name="color0" value="1, 0, 0"/><rgb name="color1" value="0, 0, 1"/></texture></emitter>"#;
+        let by_ref = r#"<emitter type="area"><ref name="radiance" id="tex"/></emitter>"#;
+        for e in [nested, by_ref] {
+            let s = scene(e).unwrap();
+            for (i, light) in s.lights.iter().enumerate() {
+                let Light::Area { shape, radiance } = light else {
+                    panic!()
+                };
+                assert_eq!(*shape as usize, i);
+                assert!(matches!(radiance, AreaRadiance::Texture(_)));
+                let g = &s.geometry[i];
+                // the uv of a light sample is the uv a ray finds at the same point
+                let mut rng = specula_bsdf::rng::Pcg32::new(5, 7);
+                let x = Vec3::new(0.3, -0.2, 2.5);
+                for _ in 0..200 {
+                    let ps = g.sample_position(rng.next_vec2());
+                    let d = (ps.p - x).normalize();
+                    let ray = Ray {
+                        o: x,
+                        d,
+                        t_max: f32::INFINITY,
+                    };
+                    let Some(hit) = s.intersect(&ray) else {
+                        continue;
+                    };
+                    if hit.shape as usize != i || (ray.at(hit.t) - ps.p).length() > 1e-4 {
+                        continue; // the sample is hidden behind another part of the shape
+                    }
+                    let si = g.surface(&ray, &hit);
+                    let le = radiance.eval(si.uv, si.p);
+                    assert_eq!(radiance.eval(ps.uv, ps.p), le, "{:?} vs {:?}", ps.uv, si.uv);
+                    if matches!(g, Geometry::Sphere(_)) {
+                        assert_eq!(radiance.eval_along(g, x, d, hit.t), le);
+                    }
+                    assert!(le == Rgb::new(1.0, 0.0, 0.0) || le == Rgb::new(0.0, 0.0, 1.0));
+                }
+            }
+        }
+        let s =
+            scene(r#"<emitter type="area"><rgb name="radiance" value="2"/></emitter>"#).unwrap();
+        assert!(
+            matches!(&s.lights[0], Light::Area { radiance: AreaRadiance::Rgb(c), .. } if *c == Rgb::splat(2.0))
+        );
+        for (e, want) in [
+            (
+                r#"<emitter type="area"><texture type="checkerboard" name="irradiance"/></emitter>"#,
+                "'radiance'",
+            ),
+            (
+                r#"<emitter type="area"><rgb name="radiance" value="1"/><ref name="radiance" id="tex"/></emitter>"#,
+                "duplicate parameter",
+            ),
+            (
+                r#"<emitter type="area"><texture type="checkerboard"/></emitter>"#,
+                "needs a 'name'",
+            ),
+            (
+                r#"<emitter type="area"><ref name="radiance" id="nope"/></emitter>"#,
+                "nope",
+            ),
+            (
+                r#"<emitter type="area"><bsdf type="diffuse"/></emitter>"#,
+                "cannot be nested",
+            ),
+            (
+                r#"<emitter type="area"><float name="scale" value="2"/></emitter>"#,
+                "scale",
+            ),
+        ] {
+            let err = scene(e)
+                .err()
+                .unwrap_or_else(|| panic!("accepted: {e}"))
+                .to_string();
+            assert!(err.contains(want) && err.contains("<test>:"), "{e}: {err}");
+        }
     }
 }

@@ -603,12 +603,14 @@ impl Integrator {
                 n.check_unused(&["aovs"])?;
                 Integrator::Aov(AovSettings { aovs, integrators })
             }
-            other => return Err(SceneError::new(
-                Some(n.loc.clone()),
-                format!(
+            other => {
+                return Err(SceneError::new(
+                    Some(n.loc.clone()),
+                    format!(
                     "integrator '{other}' is not supported (supported: path, direct, depth, aov)"
                 ),
-            )),
+                ))
+            }
         };
         if !matches!(i, Integrator::Aov(_)) {
             if let Some(c) = n.children.first() {

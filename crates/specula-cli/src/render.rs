@@ -5,7 +5,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use specula_render::render::{render, RenderOptions};
 use specula_render::sampler::SamplerKind;
-use specula_render::scene::Scene;
+use specula_render::scene::{LoadOptions, Scene};
 use std::io::Write;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -22,6 +22,11 @@ pub struct RenderArgs {
     /// Set a scene parameter declared with `<default>`, e.g. `-D spp=16` (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub defines: Vec<String>,
+    /// Render at another film size, WxH (e.g. `320x240`), with the same field of view: the
+    /// image you would get by editing the film's `width`/`height` in the file (its crop
+    /// window reset to the whole film).
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    pub size: Option<(usize, usize)>,
     /// Samples per pixel (overrides the scene's sampler).
     #[arg(long)]
     pub spp: Option<u32>,
@@ -62,7 +67,8 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
             output.display()
         )));
     }
-    let mut scene = Scene::load(&args.scene, &defines).map_err(CliError::usage)?;
+    let load = LoadOptions { size: args.size };
+    let mut scene = Scene::load_with(&args.scene, &defines, &load).map_err(CliError::usage)?;
     if let Some(name) = &args.sampler {
         scene.sampler.kind = SamplerKind::parse(name).ok_or_else(|| {
             CliError::usage(format!(
@@ -154,4 +160,33 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         if result.complete { "" } else { " (unrendered tiles are black)" }
     )?;
     Ok(())
+}
+
+/// Parses `--size WxH` (`x` or `×`; each side 1 … 65536).
+fn parse_size(s: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("expected WIDTHxHEIGHT (e.g. 320x240), got '{s}'");
+    let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
+    let w: usize = w.trim().parse().map_err(|_| bad())?;
+    let h: usize = h.trim().parse().map_err(|_| bad())?;
+    if !(1..=1 << 16).contains(&w) || !(1..=1 << 16).contains(&h) {
+        return Err(format!(
+            "each side of --size must lie in [1, 65536], got {w}x{h}"
+        ));
+    }
+    Ok((w, h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_size;
+
+    #[test]
+    fn size_argument() {
+        assert_eq!(parse_size("320x240"), Ok((320, 240)));
+        assert_eq!(parse_size("64×48"), Ok((64, 48)));
+        assert_eq!(parse_size("7X5"), Ok((7, 5)));
+        for bad in ["320", "x240", "0x10", "10x0", "-3x4", "70000x2", "axb", ""] {
+            assert!(parse_size(bad).is_err(), "{bad}");
+        }
+    }
 }

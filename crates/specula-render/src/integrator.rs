@@ -32,7 +32,7 @@ pub use crate::scene::PathSettings;
 use crate::scene::{Light, Scene};
 use crate::xml::Node;
 use glam::{Vec2, Vec3};
-use specula_bsdf::{BsdfContext, BsdfModel, Rgb, ShadingPoint};
+use specula_bsdf::{BsdfContext, BsdfModel, Rgb};
 
 use crate::accel::{offset_ray_origin, SHADOW_EPSILON};
 
@@ -163,7 +163,7 @@ impl Scene {
                     return Some(LightSample {
                         wi,
                         dist: t as f32,
-                        weight: *radiance / pdf,
+                        weight: radiance.eval_along(g, x, wi, t as f32) / pdf,
                         pdf,
                         is_delta: false,
                     });
@@ -185,7 +185,7 @@ impl Scene {
                 Some(LightSample {
                     wi,
                     dist,
-                    weight: *radiance / pdf,
+                    weight: radiance.eval(ps.uv, ps.p) / pdf,
                     pdf,
                     is_delta: false,
                 })
@@ -316,7 +316,7 @@ impl Scene {
                                 self.area_light_pdf(hit.shape, prev_p, si.p, si.n_geo),
                             )
                         };
-                        result += throughput * *radiance * w;
+                        result += throughput * radiance.eval(si.uv, si.p) * w;
                     }
                 }
             }
@@ -325,7 +325,7 @@ impl Scene {
                 break;
             }
             let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-            let sp = ShadingPoint { uv: si.uv, p: si.p };
+            let sp = si.shading_point(&hit, self.geometry[shape].surface_data());
             let flags = bsdf.flags();
 
             // next-event estimation
@@ -651,10 +651,10 @@ impl Scene {
     /// Radiance an area light on the hit shape emits towards the previous vertex (`wi` local
     /// to the hit's shading frame, pointing back along the ray), or `None` when the shape does
     /// not emit towards it.
-    fn area_emission(&self, shape: usize, _si: &SurfaceGeometry, wi: Vec3) -> Option<Rgb> {
+    fn area_emission(&self, shape: usize, si: &SurfaceGeometry, wi: Vec3) -> Option<Rgb> {
         let li = self.shape_light[shape]?;
         match &self.lights[li as usize] {
-            Light::Area { radiance, .. } if wi.z > 0.0 => Some(*radiance),
+            Light::Area { radiance, .. } if wi.z > 0.0 => Some(radiance.eval(si.uv, si.p)),
             _ => None,
         }
     }
@@ -690,7 +690,7 @@ impl Scene {
         let (frac_lum, frac_bsdf) = (ne as f32 / total, nb as f32 / total);
         let ctx = BsdfContext::RADIANCE;
         let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-        let sp = ShadingPoint { uv: si.uv, p: si.p };
+        let sp = si.shading_point(&hit, self.geometry[shape].surface_data());
         let smooth = bsdf.flags().intersects(specula_bsdf::LobeFlags::SMOOTH);
 
         // emitter sampling

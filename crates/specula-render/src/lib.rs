@@ -25,5 +25,6 @@ pub mod metrics;
 pub mod render;
 pub mod sampler;
 pub mod scene;
+pub mod serialized;
 pub mod texture;
 pub mod xml;

@@ -91,7 +91,8 @@ fn render_tile<S: PixelSampler>(
                 for i in 0..n {
                     sampler.start_sample(done + i as u32, 0);
                     pos[i] = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-                    rays[i] = scene.camera.ray(pos[i] * inv);
+                    // a thin lens draws its aperture sample next; a pinhole draws none
+                    rays[i] = scene.camera.sample_ray(pos[i] * inv, || sampler.next_2d());
                 }
                 scene.accel.intersect_packet(&rays[..n], &mut hits[..n]);
                 for i in 0..n {

@@ -5,9 +5,9 @@
 //! starts each pixel ([`PixelSampler::start_pixel`]) and each of the pixel's samples at a given
 //! dimension ([`PixelSampler::start_sample`]); the camera takes dimension 0 (a 2D film
 //! position) and 1 (a thin lens's aperture sample), the integrator dimensions 2 onwards.
-//! Every sampler but `independent` is a function of (seed, pixel index, sample index, dimension); `independent` draws from one
-//! stream per pixel, in the fixed order the renderer traces the pixel's samples. Either way
-//! images do not depend on the thread count.
+//! Every sampler but `independent` is a function of (seed, pixel index, sample index,
+//! dimension); `independent` draws from one stream per pixel, in the fixed order the renderer
+//! traces the pixel's samples. Either way images do not depend on the thread count.
 //!
 //! | plugin | parameters (Mitsuba's defaults) | sample count rounded to | design |
 //! |---|---|---|---|

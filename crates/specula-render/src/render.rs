@@ -1,7 +1,8 @@
 //! Rendering a scene to an image: tiles in parallel (rayon), the scene's sampler restarted at
 //! every pixel and sample (its values a function of seed, pixel, sample and dimension), blocks
 //! merged in a fixed order — the image depends only on the seed, never on the number of
-//! threads. The camera takes sample dimension 0 (the film position), the integrator the rest.
+//! threads. The camera takes sample dimensions 0 (the film position) and 1 (a thin lens's aperture
+//! sample), the integrator dimensions 2 onwards.
 //! Integrators with AOVs fill extra channels, filtered like the image.
 
 use crate::accel::Intersector;
@@ -99,7 +100,9 @@ fn render_tile<S: PixelSampler>(
                 }
                 scene.accel.intersect_packet(&rays[..n], &mut hits[..n]);
                 for i in 0..n {
-                    sampler.start_sample(done + i as u32, 1);
+                    // dimension 0: film position, 1: aperture (thin lens); the integrator
+                    // starts at 2 whatever the camera, so that the two never share one
+                    sampler.start_sample(done + i as u32, 2);
                     let l = scene.sample(
                         integrator,
                         rays[i],

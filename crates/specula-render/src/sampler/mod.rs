@@ -4,10 +4,10 @@
 //! [`Sampler::next_1d`] and [`Sampler::next_2d`]. The renderer drives a [`PixelSampler`]: it
 //! starts each pixel ([`PixelSampler::start_pixel`]) and each of the pixel's samples at a given
 //! dimension ([`PixelSampler::start_sample`]); the camera takes dimension 0 (a 2D film
-//! position) and the integrator continues from dimension 1. Every sampler but `independent` is
-//! a function of (seed, pixel index, sample index, dimension); `independent` draws from one
-//! stream per pixel, in the fixed order the renderer traces the pixel's samples. Either way
-//! images do not depend on the thread count.
+//! position) and 1 (a thin lens's aperture sample), the integrator dimensions 2 onwards.
+//! Every sampler but `independent` is a function of (seed, pixel index, sample index,
+//! dimension); `independent` draws from one stream per pixel, in the fixed order the renderer
+//! traces the pixel's samples. Either way images do not depend on the thread count.
 //!
 //! | plugin | parameters (Mitsuba's defaults) | sample count rounded to | design |
 //! |---|---|---|---|

@@ -19,7 +19,11 @@ use glam::Vec2;
 
 /// The smallest prime p ≥ 2 with p² ≥ spp.
 pub(super) fn resolution(spp: u32) -> u32 {
-    let is_prime = |x: u32| (2..).take_while(|d| d * d <= x).all(|d| x % d != 0);
+    let is_prime = |x: u32| {
+        (2..)
+            .take_while(|d| d * d <= x)
+            .all(|d| !x.is_multiple_of(d))
+    };
     let mut p = 2u32;
     while (p as u64 * p as u64) < spp as u64 || !is_prime(p) {
         p += 1;

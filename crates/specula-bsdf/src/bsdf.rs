@@ -222,6 +222,11 @@ pub trait Texture: Send + Sync + fmt::Debug {
     fn mesh_attribute(&self) -> Option<&str> {
         None
     }
+    /// Resolution (width, height) of an image texture; (1, 1) for others (Mitsuba's
+    /// `Texture::resolution`, which sets e.g. a `projector`'s aspect ratio).
+    fn resolution(&self) -> (usize, usize) {
+        (1, 1)
+    }
 }
 
 /// A colour parameter: a constant or a texture, looked up per shading point.

@@ -15,8 +15,8 @@
 //!   plane (perpendicular to the view axis) and end on the far plane.
 //! - `focus_distance` (default `far_clip`) is accepted by every sensor (Mitsuba's projective
 //!   camera reads it); only `thinlens` uses it.
-//! - `perspective`: `principal_point_offset_x`/`_y` (default 0) shift the film sample in units
-//!   of the (crop) film size before projection (off-axis projection).
+//! - `perspective`: `principal_point_offset_x`/`_y` (default 0) shift the projection by that
+//!   fraction of the *full* film's width/height (off-axis projection; with a crop window too).
 //! - `perspective` and `thinlens` refuse a scaled `to_world` ("Scale factors in the
 //!   camera-to-world transformation are not allowed", as Mitsuba).
 //! - `thinlens`: `aperture_radius` (required; 0 becomes 10⁻⁷, a warning in Mitsuba) — rays
@@ -240,7 +240,7 @@ pub struct PerspectiveCamera {
     pub near_clip: f32,
     pub far_clip: f32,
     window: Window,
-    /// Principal point offset (in crop-film units).
+    /// Principal point offset (in units of the full film's size).
     ppo: Vec2,
 }
 
@@ -287,7 +287,7 @@ impl PerspectiveCamera {
     /// Camera-space direction (z = 1) through crop-film position `s`.
     #[inline]
     fn dir_cam(&self, s: Vec2) -> Vec3 {
-        let q = self.window.map(s + self.ppo);
+        let q = self.window.map(s) + self.ppo;
         let x = (1.0 - 2.0 * q.x) * self.tan_half_x;
         let y = (1.0 - 2.0 * q.y) / self.aspect * self.tan_half_x;
         Vec3::new(x, y, 1.0)
@@ -678,6 +678,28 @@ mod tests {
             [0.0225664, -0.124115, 0.992011],
             2e-6,
         );
+        // crop window and principal point offset together: the offset is in units of the
+        // full film (Mitsuba: x/z and y/z of ray.d)
+        let c = camera(&format!(
+            r#"<sensor type="perspective"><float name="fov" value="40"/><float name="principal_point_offset_x" value="0.1"/><float name="principal_point_offset_y" value="-0.2"/>{}</sensor>"#,
+            film(
+                64,
+                48,
+                r#"<integer name="crop_offset_x" value="10"/><integer name="crop_offset_y" value="5"/><integer name="crop_width" value="20"/><integer name="crop_height" value="30"/>"#
+            )
+        ))
+        .unwrap();
+        for (s, want) in [
+            ((0.0, 0.0), [0.177_435_5, 0.325_298_4]),
+            ((1.0, 1.0), [-0.050_045_85, -0.015_923_67]),
+            ((0.5, 0.5), [0.063_694_82, 0.154_687_4]),
+        ] {
+            let d = c.ray(Vec2::new(s.0, s.1)).d;
+            assert!(
+                (d.x / d.z - want[0]).abs() < 2e-6 && (d.y / d.z - want[1]).abs() < 2e-6,
+                "{d}"
+            );
+        }
     }
 
     #[test]

@@ -135,7 +135,7 @@ impl Scene {
                     return Some(LightSample {
                         wi,
                         dist: t as f32,
-                        weight: *radiance / pdf,
+                        weight: radiance.eval_along(g, x, wi, t as f32) / pdf,
                         pdf,
                         is_delta: false,
                     });
@@ -157,7 +157,7 @@ impl Scene {
                 Some(LightSample {
                     wi,
                     dist,
-                    weight: *radiance / pdf,
+                    weight: radiance.eval(ps.uv, ps.p) / pdf,
                     pdf,
                     is_delta: false,
                 })
@@ -253,7 +253,7 @@ impl Scene {
                                 self.area_light_pdf(hit.shape, prev_p, si.p, si.n_geo),
                             )
                         };
-                        result += throughput * *radiance * w;
+                        result += throughput * radiance.eval(si.uv, si.p) * w;
                     }
                 }
             }

@@ -3,9 +3,9 @@
 use crate::accel::{Bvh, Intersector};
 use crate::camera::{Camera, FilmWindow};
 use crate::core::{Loc, Ray, Result, SceneError};
-use crate::emitters::Emitter;
+use crate::emitters::{Emitter, NamedTexture};
 use crate::film::{Film, RFilter};
-use crate::geometry::Geometry;
+use crate::geometry::{Geometry, ShapeGroup};
 use crate::texture::{Bitmap, Checkerboard, MeshAttributeTexture};
 use crate::xml::{Node, PropValue, Usage};
 use glam::{Mat4, Vec3};
@@ -31,9 +31,70 @@ pub enum Light {
     /// Mitsuba's `area` emitter on shape `shape`, emitting `radiance` from its front side.
     Area {
         shape: u32,
-        radiance: Rgb,
+        radiance: AreaRadiance,
     },
     Other(Emitter),
+}
+
+/// The `radiance` of Mitsuba's `area` emitter: a colour, or a texture looked up at the surface
+/// point's uv (a nested `<texture name="radiance">` or a `<ref name="radiance" id=…>`).
+///
+/// Light sampling picks points uniformly by area (spheres seen from outside: uniformly in
+/// the cone they subtend) whether or not the radiance is textured, and the MIS pdf is that
+/// of the same strategy. Mitsuba importance-samples a textured radiance's image instead
+/// (`Texture::sample_position`); both are unbiased, so images agree in expectation and
+/// differ only in noise.
+#[derive(Clone, Debug)]
+pub enum AreaRadiance {
+    Rgb(Rgb),
+    Texture(Arc<dyn Texture>),
+}
+
+impl From<Rgb> for AreaRadiance {
+    fn from(c: Rgb) -> Self {
+        AreaRadiance::Rgb(c)
+    }
+}
+
+impl AreaRadiance {
+    /// Radiance at a surface point with texture coordinates `uv` (position `p`).
+    #[inline]
+    pub fn eval(&self, uv: glam::Vec2, p: Vec3) -> Rgb {
+        match self {
+            AreaRadiance::Rgb(c) => *c,
+            AreaRadiance::Texture(t) => t.eval(&specula_bsdf::ShadingPoint {
+                uv,
+                p,
+                ..Default::default()
+            }),
+        }
+    }
+
+    /// Radiance at the point `o + t·d` where a ray meets the (analytic) shape `g`: the point's
+    /// uv is only computed for a textured radiance.
+    #[inline]
+    pub fn eval_along(&self, g: &Geometry, o: Vec3, d: Vec3, t: f32) -> Rgb {
+        match self {
+            AreaRadiance::Rgb(c) => *c,
+            AreaRadiance::Texture(_) => {
+                let ray = Ray {
+                    o,
+                    d,
+                    t_max: f32::INFINITY,
+                };
+                let hit = crate::core::Hit {
+                    t,
+                    shape: 0,
+                    prim: 0,
+                    u: 0.0,
+                    v: 0.0,
+                    vertices: None,
+                };
+                let si = g.surface(&ray, &hit);
+                self.eval(si.uv, si.p)
+            }
+        }
+    }
 }
 
 /// Changes applied to a scene file as it loads.
@@ -153,6 +214,7 @@ impl Scene {
             bsdf_ids: HashMap::new(),
             texture_ids: HashMap::new(),
             attr_uses: MeshAttrUses::default(),
+            groups: HashMap::new(),
         }
         .build(&root)
     }
@@ -172,6 +234,7 @@ impl Scene {
             bsdf_ids: HashMap::new(),
             texture_ids: HashMap::new(),
             attr_uses: MeshAttrUses::default(),
+            groups: HashMap::new(),
         }
         .build(&root)
     }
@@ -264,6 +327,7 @@ fn find_and_build_bsdf(
         bsdf_ids: HashMap::new(),
         texture_ids: HashMap::new(),
         attr_uses: MeshAttrUses::default(),
+        groups: HashMap::new(),
     };
     let mut last = None;
     for child in &root.children {
@@ -316,6 +380,8 @@ struct Builder {
     bsdf_ids: HashMap<String, u32>,
     texture_ids: HashMap<String, Arc<dyn Texture>>,
     attr_uses: MeshAttrUses,
+    /// `shapegroup`s by id, for `instance`s.
+    groups: HashMap<String, Arc<ShapeGroup>>,
 }
 
 /// The mesh attributes that materials read through `mesh_attribute` textures, checked against
@@ -808,6 +874,10 @@ impl Builder {
         let Some(uses) = self.attr_uses.by_bsdf.get(&bsdf) else {
             return Ok(());
         };
+        let geom = match geom {
+            Geometry::Instance(i) => &i.group.shapes[i.member as usize],
+            g => g,
+        };
         for (name, loc) in uses {
             let msg = match geom {
                 Geometry::Mesh(m) => match m.attribute(name) {
@@ -846,10 +916,82 @@ impl Builder {
     }
 
     fn emitter(&self, n: &Node) -> Result<Emitter> {
-        Emitter::from_node(n, &self.base)
+        let textures = self.emitter_textures(n)?;
+        Emitter::from_node_textured(n, &self.base, &textures)
+    }
+
+    /// The textures nested in (or referenced by) an emitter, with the parameter each sets;
+    /// other nested elements are left for the emitter to reject.
+    fn emitter_textures(&self, n: &Node) -> Result<Vec<NamedTexture>> {
+        let mut out = vec![];
+        for c in &n.children {
+            let texture = match c.tag.as_str() {
+                "texture" => self.texture(c)?,
+                "ref" => match c.id.as_ref().and_then(|id| self.texture_ids.get(id)) {
+                    Some(t) => t.clone(),
+                    None => return Err(self.bad_ref(c, "texture")),
+                },
+                _ => continue,
+            };
+            let name = c.name.clone().ok_or_else(|| {
+                c.error(format!(
+                    "a texture given to {} needs a 'name' (the parameter it sets)",
+                    n.describe()
+                ))
+            })?;
+            out.push(NamedTexture {
+                name,
+                texture,
+                loc: c.loc.clone(),
+            });
+        }
+        Ok(out)
+    }
+
+    /// Mitsuba's `area` emitter nested in a shape: its `radiance`, a colour or a texture.
+    fn area_radiance(&self, c: &Node) -> Result<AreaRadiance> {
+        let textures = self.emitter_textures(c)?;
+        if let Some(other) = c
+            .children
+            .iter()
+            .find(|x| x.tag != "texture" && x.tag != "ref")
+        {
+            return Err(other.error(format!(
+                "<{}> cannot be nested in an area emitter",
+                other.tag
+            )));
+        }
+        let radiance = match textures.as_slice() {
+            [] => AreaRadiance::Rgb(Rgb(c.emission_rgb("radiance", [1.0; 3])?)),
+            [t] if t.name == "radiance" && !c.has("radiance") => {
+                AreaRadiance::Texture(t.texture.clone())
+            }
+            [t, ..] => {
+                return Err(SceneError::new(
+                    Some(t.loc.clone()),
+                    format!(
+                        "an area emitter takes one texture, 'radiance' (got '{}'{})",
+                        t.name,
+                        if c.has("radiance") {
+                            " besides a radiance value"
+                        } else {
+                            ""
+                        }
+                    ),
+                ))
+            }
+        };
+        c.check_unused(&["radiance"])?;
+        Ok(radiance)
     }
 
     fn shape(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        match n.plugin_type.as_str() {
+            "shapegroup" => return self.shapegroup(n, parts),
+            "instance" => return self.instance(n, parts),
+            "merge" => return self.merge(n, parts),
+            _ => {}
+        }
         let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         let flip = n.bool("flip_normals", false)?;
         let geom = match n.plugin_type.as_str() {
@@ -889,6 +1031,14 @@ let mut data = match n.plugin_type.as_str() {
                 n.check_unused(&["center", "radius", "to_world", "flip_normals"])?;
                 Geometry::sphere(center, radius, to_world, flip)
             }
+            "cylinder" => {
+                let p0 = n.point("p0", Vec3::ZERO)?;
+                let p1 = n.point("p1", Vec3::Z)?;
+                let radius = n.float("radius", 1.0)?;
+                n.check_unused(&["p0", "p1", "radius", "to_world", "flip_normals"])?;
+                Geometry::cylinder(p0, p1, radius, to_world, flip)
+                    .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?
+            }
             "rectangle" | "cube" | "disk" => {
                 n.check_unused(&["to_world", "flip_normals"])?;
                 match n.plugin_type.as_str() {
@@ -900,7 +1050,7 @@ let mut data = match n.plugin_type.as_str() {
             other => {
                 return Err(SceneError::new(
                     Some(n.loc.clone()),
-                    format!("shape '{other}' is not supported (supported: obj, ply, sphere, rectangle, cube, disk)"),
+                    format!("shape '{other}' is not supported (supported: obj, ply, serialized, sphere, rectangle, cube, disk, cylinder, shapegroup, instance, merge)"),
                 ))
             }
         };
@@ -932,11 +1082,10 @@ let mut data = match n.plugin_type.as_str() {
                             ),
                         ));
                     }
-                    let radiance = c.emission_rgb("radiance", [1.0; 3])?;
-                    c.check_unused(&["radiance"])?;
+                    let radiance = self.area_radiance(c)?;
                     parts.lights.push(Light::Area {
                         shape: shape_index,
-                        radiance: Rgb(radiance),
+                        radiance,
                     });
                     light = Some(parts.lights.len() as u32 - 1);
                 }
@@ -965,6 +1114,149 @@ let mut data = match n.plugin_type.as_str() {
         parts.geometry.push(geom);
         parts.shape_bsdf.push(bsdf);
         parts.shape_light.push(light);
+        Ok(())
+    }
+}
+
+impl Builder {
+    /// Mitsuba's `shapegroup`: builds its shapes (in the group's space, BSDFs in the scene's
+    /// list) and one BVH over them, kept under its id for `instance`s; nothing is rendered
+    /// until instanced.
+    fn shapegroup(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        n.check_unused(&[])?;
+        let mut gp = Parts {
+            geometry: vec![],
+            shape_bsdf: vec![],
+            shape_light: vec![],
+            bsdfs: std::mem::take(&mut parts.bsdfs),
+            lights: vec![],
+        };
+        let mut result = Ok(());
+        for c in &n.children {
+            result = self.group_member(c, &mut gp);
+            if result.is_err() {
+                break;
+            }
+        }
+        parts.bsdfs = std::mem::take(&mut gp.bsdfs);
+        result?;
+        if !gp.lights.is_empty() {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                "Instancing of emitters is not supported (a shape in a shapegroup cannot carry an emitter)",
+            ));
+        }
+        let group = Arc::new(ShapeGroup::new(gp.geometry, gp.shape_bsdf));
+        if let Some(id) = &n.id {
+            self.groups.insert(id.clone(), group);
+        }
+        Ok(())
+    }
+
+    /// One nested element of a `shapegroup`: a shape without emitters (Mitsuba's errors).
+    fn group_member(&mut self, c: &Node, gp: &mut Parts) -> Result<()> {
+        let err = |m: &str| Err(SceneError::new(Some(c.loc.clone()), m));
+        if c.tag != "shape" {
+            return err(&format!(
+                "<{}> cannot be nested in a shapegroup (only shapes can)",
+                c.tag
+            ));
+        }
+        match c.plugin_type.as_str() {
+            "shapegroup" => return err("Nested ShapeGroup is not permitted"),
+            "instance" => return err("Nested instancing is not permitted"),
+            _ => {}
+        }
+        if c.children.iter().any(|e| e.tag == "emitter") {
+            return err("Instancing of emitters is not supported (a shape in a shapegroup cannot carry an emitter)");
+        }
+        self.shape(c, gp)
+    }
+
+    /// Mitsuba's `merge` (3.5+): its nested shapes, with the triangle meshes that share a BSDF
+    /// (and have no emitter, and the same normal / texture-coordinate layout and
+    /// `flip_normals`) concatenated into one mesh each; other shapes are kept as they are.
+    /// As in Mitsuba the kept shapes come first, then the merged meshes. Same image as
+    /// without `merge`; fewer, larger meshes.
+    fn merge(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        n.check_unused(&[])?;
+        let start = parts.geometry.len();
+        for c in &n.children {
+            if c.tag != "shape" || c.plugin_type == "shapegroup" {
+                return Err(SceneError::new(
+                    Some(c.loc.clone()),
+                    format!(
+                        "<{} type=\"{}\"> cannot be nested in a merge (only shapes can; shapegroups belong at the top level)",
+                        c.tag, c.plugin_type
+                    ),
+                ));
+            }
+            self.shape(c, parts)?;
+        }
+        let geometry: Vec<Geometry> = parts.geometry.drain(start..).collect();
+        let bsdfs: Vec<u32> = parts.shape_bsdf.drain(start..).collect();
+        let lights: Vec<Option<u32>> = parts.shape_light.drain(start..).collect();
+        // (bsdf, layout) → meshes, in order of first appearance
+        let mut groups: Vec<((u32, (bool, bool, bool)), Vec<Geometry>)> = Vec::new();
+        for ((g, bsdf), light) in geometry.into_iter().zip(bsdfs).zip(lights) {
+            match (light, g.merge_key()) {
+                (None, Some(k)) => match groups.iter_mut().find(|(key, _)| *key == (bsdf, k)) {
+                    Some((_, list)) => list.push(g),
+                    None => groups.push(((bsdf, k), vec![g])),
+                },
+                _ => {
+                    if let Some(li) = light {
+                        if let Light::Area { shape, .. } = &mut parts.lights[li as usize] {
+                            *shape = parts.geometry.len() as u32;
+                        }
+                    }
+                    parts.geometry.push(g);
+                    parts.shape_bsdf.push(bsdf);
+                    parts.shape_light.push(light);
+                }
+            }
+        }
+        for ((bsdf, _), list) in groups {
+            let merged = Geometry::merge_meshes(list)
+                .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
+            parts.geometry.push(merged);
+            parts.shape_bsdf.push(bsdf);
+            parts.shape_light.push(None);
+        }
+        Ok(())
+    }
+
+    /// Mitsuba's `instance`: `<ref id=…>` to a shapegroup, placed by `to_world`. Adds one scene
+    /// shape per group shape (sharing the group's BVH; see `geometry`'s module docs).
+    fn instance(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        n.check_unused(&["to_world"])?;
+        let mut group = None;
+        for c in &n.children {
+            if c.tag != "ref" || group.is_some() {
+                return Err(SceneError::new(
+                    Some(c.loc.clone()),
+                    "Only a shapegroup can be specified in an instance (one <ref id=…/>)",
+                ));
+            }
+            match self.groups.get(c.id.as_deref().unwrap_or_default()) {
+                Some(g) => group = Some(g.clone()),
+                None => return Err(self.bad_ref(c, "shapegroup")),
+            }
+        }
+        let Some(group) = group else {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                "A reference to a 'shapegroup' must be specified (<ref id=…/>)",
+            ));
+        };
+        let slots = Geometry::instance(&group, to_world)
+            .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
+        for (g, &bsdf) in slots.into_iter().zip(&group.bsdfs) {
+            parts.geometry.push(g);
+            parts.shape_bsdf.push(bsdf);
+            parts.shape_light.push(None);
+        }
         Ok(())
     }
 }

@@ -302,6 +302,10 @@ impl Texture for Bitmap {
         self.lookup(sp.uv)
     }
 
+    fn resolution(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
     /// Luminance of the interpolated colour (the value itself for 1-channel data).
     fn eval_1(&self, sp: &ShadingPoint) -> f32 {
         let c = self.lookup(sp.uv);

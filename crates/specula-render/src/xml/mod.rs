@@ -6,6 +6,10 @@
 //! evaluated to matrices, Mitsuba 0.6 scenes (`version` < 2.0.0) are upgraded the way Mitsuba 3
 //! upgrades them, and every node and property remembers the `file:line:col` it came from.
 //! `<ref>` elements stay in the tree (tag `"ref"`) for the scene builder to resolve.
+//! `<spectrum>` values (constants, wavelength:value lists, `.spd` files, spectrum plugins) are
+//! kept as [`Spectrum`]s and become RGB when read, by the rule of the parameter's use
+//! ([`Node::rgb_opt`] for reflectances, [`Node::emission_rgb`] for emitters,
+//! [`Node::color_opt`] with [`Usage::Unbounded`] for IOR-like values; see [`spectrum`]).
 //!
 //! The scene builder reads properties through the typed accessors on [`Node`] (which record
 //! what was read) and finishes each plugin with [`Node::check_unused`], so that a misspelt or

@@ -117,7 +117,105 @@ fn parse_main(
     parser.check_overrides(&root_loc)?;
     resolve_aliases(&mut node, &parser.aliases);
     inline_definitions(&mut node)?;
+    order_by_references(&mut node)?;
     Ok(node)
+}
+
+/// Ids referenced by `<ref>`s anywhere inside `n`.
+fn referenced_ids(n: &Node) -> Vec<&str> {
+    let mut out = vec![];
+    let mut stack = vec![n];
+    while let Some(m) = stack.pop() {
+        if m.tag == "ref" {
+            if let Some(id) = &m.id {
+                out.push(id.as_str());
+            }
+        }
+        stack.extend(m.children.iter());
+    }
+    out
+}
+
+/// Mitsuba lets a `<ref>` name a plugin declared later in the file (it instantiates plugins
+/// in dependency order). The scene builder reads the top level in order, so the top-level
+/// plugins are reordered here: each after the plugins it references, otherwise in document
+/// order. A reference cycle is an error.
+fn order_by_references(root: &mut Node) -> Result<()> {
+    let n = root.children.len();
+    let index: HashMap<&str, usize> = root
+        .children
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| c.id.as_deref().filter(|_| c.tag != "ref").map(|id| (id, i)))
+        .collect();
+    let deps: Vec<Vec<usize>> = root
+        .children
+        .iter()
+        .map(|c| {
+            referenced_ids(c)
+                .into_iter()
+                .filter_map(|id| index.get(id).copied())
+                .collect()
+        })
+        .collect();
+    if deps
+        .iter()
+        .enumerate()
+        .all(|(i, d)| d.iter().all(|&j| j < i))
+    {
+        return Ok(()); // already in order (the common case)
+    }
+    // iterative depth-first topological sort, visiting in document order
+    #[derive(Clone, Copy, PartialEq)]
+    enum Mark {
+        New,
+        Open,
+        Done,
+    }
+    let mut mark = vec![Mark::New; n];
+    let mut order = Vec::with_capacity(n);
+    for start in 0..n {
+        if mark[start] != Mark::New {
+            continue;
+        }
+        let mut stack = vec![(start, 0usize)];
+        mark[start] = Mark::Open;
+        while let Some(&mut (i, ref mut next)) = stack.last_mut() {
+            if let Some(&j) = deps[i].get(*next) {
+                *next += 1;
+                match mark[j] {
+                    Mark::New => {
+                        mark[j] = Mark::Open;
+                        stack.push((j, 0));
+                    }
+                    Mark::Open if j == i => {}
+                    Mark::Open => {
+                        let c = &root.children[i];
+                        return Err(SceneError::new(
+                            Some(c.loc.clone()),
+                            format!(
+                                "{} references '{}' (declared at {}), which depends on it in turn",
+                                c.describe(),
+                                root.children[j].id.as_deref().unwrap_or(""),
+                                root.children[j].loc
+                            ),
+                        ));
+                    }
+                    Mark::Done => {}
+                }
+            } else {
+                mark[i] = Mark::Done;
+                order.push(i);
+                stack.pop();
+            }
+        }
+    }
+    let mut slots: Vec<Option<Node>> = std::mem::take(&mut root.children)
+        .into_iter()
+        .map(Some)
+        .collect();
+    root.children = order.into_iter().filter_map(|i| slots[i].take()).collect();
+    Ok(())
 }
 
 /// Rewrites every `<ref>` to an alias so that it names the aliased plugin's own id.
@@ -150,16 +248,19 @@ fn resolve_aliases(node: &mut Node, aliases: &[(String, String, Loc)]) {
 /// Plugin kinds that a scene declares once at the top level (with an `id`) and uses through
 /// `<ref>` elsewhere, and that are not objects of the scene themselves: each such `<ref>` is
 /// replaced by a copy of the declaration (named by the ref's `name`), and the declarations
-/// leave the top level. (BSDFs, textures, shapes, emitters and media keep their refs: the
-/// scene builder shares those.)
+/// leave the top level. Top-level `area` emitters are treated the same way (Mitsuba attaches
+/// them to the shapes that reference them). BSDFs, textures, shapes, other emitters and media
+/// keep their refs: the scene builder shares those.
 const DEFINITION_TAGS: &[&str] = &["sampler", "film", "rfilter", "phase", "volume", "spectrum"];
 
 fn inline_definitions(root: &mut Node) -> Result<()> {
     let mut defs: HashMap<String, Node> = HashMap::new();
     let mut kept = Vec::with_capacity(root.children.len());
     for c in std::mem::take(&mut root.children) {
+        // an `area` emitter exists only attached to the shapes that reference it
+        let is_area = c.tag == "emitter" && c.plugin_type == "area";
         match &c.id {
-            Some(id) if DEFINITION_TAGS.contains(&c.tag.as_str()) => {
+            Some(id) if DEFINITION_TAGS.contains(&c.tag.as_str()) || is_area => {
                 defs.insert(id.clone(), c);
             }
             _ => kept.push(c),
@@ -831,7 +932,8 @@ impl Parser {
     }
 
     /// A `<spectrum>`: `value="v"`, `value="λ:v, …"`, `filename="x.spd"` (resolved like an
-    /// `<include>`: against the file's directory, then the main scene's), or a spectrum plugin
+    /// `<include>`: against the file's directory, the `<path>` folders, then the main
+    /// scene's), or a spectrum plugin
     /// `<spectrum type="…">` with nested parameters (see [`super::spectrum`]).
     fn spectrum(&mut self, ctx: &FileCtx, xml: roxmltree::Node, e: &Elem) -> Result<Spectrum> {
         if let Some(kind) = e.get("type") {
@@ -872,9 +974,15 @@ impl Parser {
                 let rel = Path::new(filename);
                 let mut candidates = vec![ctx.dir.join(rel)];
                 if rel.is_relative() {
-                    let alt = self.main_dir.join(rel);
-                    if !candidates.contains(&alt) {
-                        candidates.push(alt);
+                    for dir in self
+                        .search_paths
+                        .iter()
+                        .chain(std::iter::once(&self.main_dir))
+                    {
+                        let alt = dir.join(rel);
+                        if !candidates.contains(&alt) {
+                            candidates.push(alt);
+                        }
                     }
                 }
                 let Some(path) = candidates.iter().find(|p| p.is_file()) else {
@@ -1286,7 +1394,7 @@ fn spectrum_plugin(n: &Node) -> Result<Spectrum> {
                      {temperature}"
                 )));
             }
-            if !(lo < hi) {
+            if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
                 return Err(n.error(format!(
                     "spectrum 'blackbody': wavelength_min ({lo}) must be below wavelength_max \
                      ({hi})"

@@ -1,4 +1,4 @@
-//! Mitsuba 3's `checkerboard` and `bitmap` textures.
+//! Mitsuba 3's `checkerboard`, `bitmap` and `mesh_attribute` textures.
 //!
 //! Conventions checked against Mitsuba 3.9.1 (`scalar_rgb` and `llvm_ad_rgb`; the reference
 //! values in the tests come from it):
@@ -11,6 +11,11 @@
 //! - 8-bit sRGB data is converted to linear *per texel, before* interpolation (unless `raw`);
 //!   data is stored as f32 (no half-float rounding is visible in 3.9.1's lookups).
 //! - `eval_1` of an RGB bitmap is the luminance (Rec. 709 weights) of the interpolated colour.
+//! - `eval_1_grad` of a bitmap (what `bumpmap` uses) is the exact (u, v) derivative of the
+//!   bilinear interpolant of the texels' scalar values, zero with nearest filtering; textures
+//!   other than bitmaps have none (Mitsuba: "not implemented").
+//! - `mesh_attribute` (`name` = `vertex_…`/`face_…`, `scale` default 1) reads the hit mesh's
+//!   attribute through the shading point (see [`MeshAttributeTexture`]).
 
 use crate::core::{Result, SceneError};
 use crate::image_io::{read_image, srgb_to_linear, Image};

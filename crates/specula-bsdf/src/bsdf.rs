@@ -207,6 +207,11 @@ pub trait Texture: Send + Sync + fmt::Debug {
     }
     /// Average over the texture (used to balance lobe sampling probabilities).
     fn mean(&self) -> Spectrum;
+    /// Resolution (width, height) of an image texture; (1, 1) for others (Mitsuba's
+    /// `Texture::resolution`, which sets e.g. a `projector`'s aspect ratio).
+    fn resolution(&self) -> (usize, usize) {
+        (1, 1)
+    }
     /// Gradient (∂/∂u, ∂/∂v) of [`Texture::eval_1`] in texture coordinates (Mitsuba's
     /// `eval_1_grad`, what `bumpmap` perturbs the normal with); `None` for textures that do not
     /// provide one (as in Mitsuba, only `bitmap` does).
@@ -221,11 +226,6 @@ pub trait Texture: Send + Sync + fmt::Debug {
     /// loader can check the shapes it is used on.
     fn mesh_attribute(&self) -> Option<&str> {
         None
-    }
-    /// Resolution (width, height) of an image texture; (1, 1) for others (Mitsuba's
-    /// `Texture::resolution`, which sets e.g. a `projector`'s aspect ratio).
-    fn resolution(&self) -> (usize, usize) {
-        (1, 1)
     }
 }
 

@@ -946,7 +946,7 @@ impl Cylinder {
             sh_frame: shading_frame(n, dp_du),
             uv,
             dp_du,
-            // v is the object-space height (Mitsuba: the cylinder's axis times its length)
+            // v is the object-space height
             dp_dv: self.to_world.transform_vector3(Vec3::Z),
         }
     }

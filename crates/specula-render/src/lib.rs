@@ -23,6 +23,7 @@ pub mod integrator;
 pub mod mesh_io;
 pub mod metrics;
 pub mod render;
+pub mod sampler;
 pub mod scene;
 pub mod serialized;
 pub mod texture;

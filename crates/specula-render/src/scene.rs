@@ -6,6 +6,8 @@ use crate::core::{Loc, Ray, Result, SceneError};
 use crate::emitters::{Emitter, NamedTexture};
 use crate::film::{Film, RFilter};
 use crate::geometry::{Geometry, ShapeGroup};
+use crate::integrator::Integrator;
+use crate::sampler::SamplerSettings;
 use crate::texture::{Bitmap, Checkerboard, MeshAttributeTexture};
 use crate::xml::{Node, PropValue, Usage};
 use glam::{Mat4, Vec3};
@@ -188,9 +190,12 @@ pub struct Scene {
     pub accel: Bvh,
     pub camera: Camera,
     pub film: Film,
+    /// Samples per pixel: the sampler's `sample_count`, rounded as the sampler requires.
     pub spp: u32,
+    /// The sampler's `seed`.
     pub seed: u64,
-    pub integrator: PathSettings,
+    pub sampler: SamplerSettings,
+    pub integrator: Integrator,
 }
 
 impl Scene {
@@ -213,8 +218,8 @@ impl Scene {
             ids: HashMap::new(),
             bsdf_ids: HashMap::new(),
             texture_ids: HashMap::new(),
-            attr_uses: MeshAttrUses::default(),
             groups: HashMap::new(),
+            attr_uses: MeshAttrUses::default(),
         }
         .build(&root)
     }
@@ -233,8 +238,8 @@ impl Scene {
             ids: HashMap::new(),
             bsdf_ids: HashMap::new(),
             texture_ids: HashMap::new(),
-            attr_uses: MeshAttrUses::default(),
             groups: HashMap::new(),
+            attr_uses: MeshAttrUses::default(),
         }
         .build(&root)
     }
@@ -326,8 +331,8 @@ fn find_and_build_bsdf(
         ids: HashMap::new(),
         bsdf_ids: HashMap::new(),
         texture_ids: HashMap::new(),
-        attr_uses: MeshAttrUses::default(),
         groups: HashMap::new(),
+        attr_uses: MeshAttrUses::default(),
     };
     let mut last = None;
     for child in &root.children {
@@ -379,9 +384,9 @@ struct Builder {
     ids: HashMap<String, (String, Loc)>,
     bsdf_ids: HashMap<String, u32>,
     texture_ids: HashMap<String, Arc<dyn Texture>>,
-    attr_uses: MeshAttrUses,
     /// `shapegroup`s by id, for `instance`s.
     groups: HashMap<String, Arc<ShapeGroup>>,
+    attr_uses: MeshAttrUses,
 }
 
 /// The mesh attributes that materials read through `mesh_attribute` textures, checked against
@@ -434,12 +439,8 @@ impl Builder {
             bsdfs: vec![],
             lights: vec![],
         };
-        let mut integrator = PathSettings {
-            max_depth: -1,
-            rr_depth: 5,
-            hide_emitters: false,
-        };
-        let mut sensor: Option<(Camera, Film, u32, u64)> = None;
+        let mut integrator = Integrator::default();
+        let mut sensor: Option<(Camera, Film, SamplerSettings)> = None;
         for child in &root.children {
             if let Some(id) = &child.id {
                 if child.tag != "ref" {
@@ -484,7 +485,7 @@ impl Builder {
             }
         }
         root.check_unused(&[])?;
-        let Some((camera, film, spp, seed)) = sensor else {
+        let Some((camera, film, sampler)) = sensor else {
             return Err(SceneError::new(
                 Some(root.loc.clone()),
                 "the scene has no <sensor>",
@@ -514,38 +515,23 @@ impl Builder {
             accel,
             camera,
             film,
-            spp,
-            seed,
+            spp: sampler.sample_count(sampler.sample_count),
+            seed: sampler.seed,
+            sampler,
             integrator,
         })
     }
 
-    fn integrator(&self, n: &Node) -> Result<PathSettings> {
-        if n.plugin_type != "path" {
-            return Err(SceneError::new(
-                Some(n.loc.clone()),
-                format!(
-                    "integrator '{}' is not supported (supported: path)",
-                    n.plugin_type
-                ),
-            ));
-        }
-        let s = PathSettings {
-            max_depth: n.int("max_depth", -1)? as i32,
-            rr_depth: n.int("rr_depth", 5)? as i32,
-            hide_emitters: n.bool("hide_emitters", false)?,
-        };
-        if s.max_depth < -1 || s.rr_depth <= 0 {
-            return Err(SceneError::new(
-                Some(n.loc.clone()),
-                "max_depth must be ≥ −1 and rr_depth ≥ 1",
-            ));
-        }
-        n.check_unused(&["max_depth", "rr_depth", "hide_emitters"])?;
-        Ok(s)
+    fn integrator(&self, n: &Node) -> Result<Integrator> {
+        Integrator::from_node(n)
     }
 
-    fn sensor(&self, n: &Node) -> Result<(Camera, Film, u32, u64)> {
+    /// A `<sampler>` (nested in a sensor).
+    fn sampler(&self, n: &Node) -> Result<SamplerSettings> {
+        SamplerSettings::from_node(n)
+    }
+
+    fn sensor(&self, n: &Node) -> Result<(Camera, Film, SamplerSettings)> {
         if !crate::camera::SENSORS.contains(&n.plugin_type.as_str()) {
             return Err(SceneError::new(
                 Some(n.loc.clone()),
@@ -557,51 +543,11 @@ impl Builder {
             ));
         }
         let mut film = None;
-        let mut spp = 4u32;
-        let mut seed = 0u64;
+        let mut sampler = SamplerSettings::default();
         for c in &n.children {
             match c.tag.as_str() {
                 "film" => film = Some(self.film(c)?),
-                "sampler" => {
-                    const SAMPLERS: [&str; 5] = [
-                        "independent",
-                        "stratified",
-                        "multijitter",
-                        "ldsampler",
-                        "orthogonal",
-                    ];
-                    if !SAMPLERS.contains(&c.plugin_type.as_str()) {
-                        return Err(SceneError::new(
-                            Some(c.loc.clone()),
-                            format!(
-                                "sampler '{}' is not supported (supported: {})",
-                                c.plugin_type,
-                                SAMPLERS.join(", ")
-                            ),
-                        ));
-                    }
-                    let count = c.int("sample_count", 4)?;
-                    if count <= 0 {
-                        return Err(SceneError::new(
-                            Some(c.loc.clone()),
-                            "sample_count must be positive",
-                        ));
-                    }
-                    spp = count as u32;
-                    seed = c.int("seed", 0)? as u64;
-                    c.check_unused(&[
-                        "sample_count",
-                        "seed",
-                        "jitter",
-                        "dimension",
-                        "scramble",
-                        "strength",
-                    ])?;
-                    // accepted for compatibility; Specula's independent sampler ignores them
-                    for p in ["jitter", "dimension", "scramble", "strength"] {
-                        let _ = c.prop(p);
-                    }
-                }
+                "sampler" => sampler = self.sampler(c)?,
                 other => {
                     return Err(SceneError::new(
                         Some(c.loc.clone()),
@@ -619,7 +565,7 @@ impl Builder {
             ),
         };
         let cam = Camera::from_node(n, &window)?;
-        Ok((cam, film, spp, seed))
+        Ok((cam, film, sampler))
     }
 
     fn film(&self, n: &Node) -> Result<(Film, FilmWindow)> {

@@ -3145,6 +3145,7 @@ end_header
             normals: None,
             uvs: None,
             indices,
+            attributes: Vec::new(),
         };
         let mesh = Geometry::mesh(data, Mat4::IDENTITY, false, false).unwrap();
         let group = Arc::new(ShapeGroup::new(vec![mesh], vec![0]));

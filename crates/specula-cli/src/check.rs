@@ -41,6 +41,11 @@ pub struct CheckArgs {
     /// Worker threads (default: all cores)
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Texture coordinates to evaluate a textured material at (bump and normal maps,
+    /// textured parameters), on a flat surface whose ∂p/∂u, ∂p/∂v and normal are the local
+    /// x, y and z axes
+    #[arg(long, value_name = "U,V", value_delimiter = ',', allow_negative_numbers = true, default_values_t = [0.0, 0.0])]
+    pub uv: Vec<f32>,
     /// No progress bar
     #[arg(long)]
     pub quiet: bool,
@@ -139,6 +144,12 @@ pub fn run(args: &CheckArgs, out: &mut dyn Write) -> Result<(), CliError> {
             return Err(CliError::usage("--angles: give at least one angle"));
         }
     }
+    if args.uv.len() != 2 || !args.uv.iter().all(|v| v.is_finite()) {
+        return Err(CliError::usage(format!(
+            "--uv takes two finite numbers U,V, got {:?}",
+            args.uv
+        )));
+    }
     let material = crate::material::load_material(&args.material)?;
     let bsdf = &material.bsdf;
 
@@ -171,6 +182,7 @@ pub fn run(args: &CheckArgs, out: &mut dyn Write) -> Result<(), CliError> {
         angles: args.angles.clone(),
         threads: args.threads,
         reciprocity,
+        uv: glam::Vec2::new(args.uv[0], args.uv[1]),
     };
 
     let bar = if args.quiet {
@@ -209,6 +221,11 @@ pub fn run(args: &CheckArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "{:<13}θi = {angles} (φi = {:.1}°)",
         "incidence",
         suite::PHI_I.to_degrees()
+    )?;
+    writeln!(
+        out,
+        "{:<13}uv = ({}, {}) on a flat surface (∂p/∂u, ∂p/∂v, normal = local x, y, z)",
+        "at", args.uv[0], args.uv[1]
     )?;
     writeln!(
         out,

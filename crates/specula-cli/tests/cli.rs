@@ -800,6 +800,38 @@ fn brdf_check_passes_well_behaved_materials() {
 }
 
 #[test]
+fn brdf_check_surface_wrappers() {
+    // a normal map is judged on everything but reciprocity (it is not reciprocal, as in
+    // Mitsuba), at the texture coordinates given; mask and null on everything that applies
+    for (spec, recip) in [
+        (
+            "normalmap normalmap=0.7,0.4,0.9 { roughplastic alpha=0.2 }",
+            "SKIP",
+        ),
+        ("mask opacity=0.4 { diffuse }", "PASS"),
+        ("null", "SKIP"),
+    ] {
+        let o = specula(&[
+            "brdf",
+            "check",
+            spec,
+            "--quiet",
+            "--samples",
+            "20000",
+            "--uv",
+            "0.3,0.6",
+        ]);
+        let text = stdout(&o);
+        assert_eq!(o.status.code(), Some(0), "{spec}:\n{text}{}", stderr(&o));
+        assert!(text.contains("uv = (0.3, 0.6)"), "{text}");
+        assert_eq!(check_verdict(&text, "reciprocity"), Some(recip), "{text}");
+        assert_eq!(check_verdict(&text, "energy"), Some("PASS"), "{text}");
+    }
+    let o = specula(&["brdf", "check", "null", "--uv", "0.3"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}
+
+#[test]
 fn brdf_check_flags_a_merl_table_scaled_by_two() {
     use specula_bsdf::measured::merl::Merl;
     let dir = CheckScratch::new("check-merl");

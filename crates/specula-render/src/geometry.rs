@@ -19,6 +19,12 @@
 //!   (Mitsuba's `coordinate_system`).
 //! - **flip_normals** negates the geometric and the shading normal (so `t` flips, `s` does
 //!   not).
+//! - **Derivatives** (`SurfaceGeometry::dp_du`, `dp_dv`, what `bumpmap` uses; checked against
+//!   Mitsuba by `tests/surface_derivatives.rs`): meshes with uvs solve the uv parameterisation
+//!   (`∂p/∂v = (dp1·Δuv0.x − dp0·Δuv1.x) / det`), without uvs `∂p/∂u = p1 − p0`,
+//!   `∂p/∂v = p2 − p0`, degenerate uvs `coordinate_system(n)`; sphere
+//!   `∂p/∂v = π M · (z cos φ, z sin φ, −r)`; disk `∂p/∂v = 2π to_world · (−y, x, 0)`;
+//!   cylinder `∂p/∂v = M · (0, 0, 1)`; instances carry their member's to world space.
 //! - **Rectangle**: the square `[-1, 1]²` at z = 0, two triangles with vertex normals +z and
 //!   `uv = ((x + 1) / 2, (y + 1) / 2)`; sampled analytically like Mitsuba.
 //! - **Cube**: `[-1, 1]³`, Mitsuba's 24-vertex / 12-triangle layout, per-face uv (e.g. the +z

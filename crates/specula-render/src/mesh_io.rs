@@ -947,7 +947,9 @@ fn skip_list(body: &mut dyn Body, count: Scalar, item: Scalar) -> std::result::R
 
 /// Loads a Stanford PLY file (ascii, binary little or big endian). Vertex properties `x y z`,
 /// optionally `nx ny nz` and texture coordinates (`u v`, `s t`, `texture_u texture_v` or
-/// `texture_s texture_t`), of any scalar type; other properties and elements are skipped.
+/// `texture_s texture_t`), of any scalar type; further vertex and face properties become
+/// [`MeshAttribute`]s (grouped and named as Mitsuba does); list properties other than the
+/// face indices, and other elements, are skipped.
 /// Faces come from the list property `vertex_indices` (or `vertex_index`); polygons are
 /// fanned into triangles.
 pub fn load_ply(path: &Path) -> Result<MeshData> {

@@ -897,6 +897,10 @@ impl Builder {
         let Some(uses) = self.attr_uses.by_bsdf.get(&bsdf) else {
             return Ok(());
         };
+        let geom = match geom {
+            Geometry::Instance(i) => &i.group.shapes[i.member as usize],
+            g => g,
+        };
         for (name, loc) in uses {
             let msg = match geom {
                 Geometry::Mesh(m) => match m.attribute(name) {

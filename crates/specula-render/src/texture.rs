@@ -1,4 +1,4 @@
-//! Mitsuba 3's `checkerboard` and `bitmap` textures.
+//! Mitsuba 3's `checkerboard`, `bitmap` and `mesh_attribute` textures.
 //!
 //! Conventions checked against Mitsuba 3.9.1 (`scalar_rgb` and `llvm_ad_rgb`; the reference
 //! values in the tests come from it):
@@ -11,6 +11,11 @@
 //! - 8-bit sRGB data is converted to linear *per texel, before* interpolation (unless `raw`);
 //!   data is stored as f32 (no half-float rounding is visible in 3.9.1's lookups).
 //! - `eval_1` of an RGB bitmap is the luminance (Rec. 709 weights) of the interpolated colour.
+//! - `eval_1_grad` of a bitmap (what `bumpmap` uses) is the exact (u, v) derivative of the
+//!   bilinear interpolant of the texels' scalar values, zero with nearest filtering; textures
+//!   other than bitmaps have none (Mitsuba: "not implemented").
+//! - `mesh_attribute` (`name` = `vertex_…`/`face_…`, `scale` default 1) reads the hit mesh's
+//!   attribute through the shading point (see [`MeshAttributeTexture`]).
 
 use crate::core::{Result, SceneError};
 use crate::image_io::{read_image, srgb_to_linear, Image};
@@ -441,7 +446,8 @@ mod tests {
             0.1, 0.5, 0.9, 0.3, 0.2, 0.7, 0.8, 0.8, 0.1, 0.0, 0.4, 0.6, 0.5, 0.5, 0.5, 0.2, 0.9,
             0.3,
         ];
-        let cases: [(WrapMode, (f32, f32), (f32, f32)); 9] = [
+        type Case = (WrapMode, (f32, f32), (f32, f32));
+        let cases: [Case; 9] = [
             (WrapMode::Repeat, (0.5, 0.5), (1.04994, 0.485297)),
             (WrapMode::Repeat, (0.1, 0.2), (-0.938882, 0.199755)),
             (WrapMode::Repeat, (0.95, 0.9), (-1.06989, 0.134252)),

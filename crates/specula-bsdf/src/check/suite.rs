@@ -73,6 +73,10 @@ pub struct SuiteConfig<'a> {
     /// Worker threads (0 = all cores).
     pub threads: usize,
     pub reciprocity: Reciprocity<'a>,
+    /// Texture coordinates the material is evaluated at (textured parameters, bump and normal
+    /// maps), on the flat shading point of [`ShadingPoint::default`] (∂p/∂u, ∂p/∂v and the
+    /// geometric normal along the local x, y and z axes).
+    pub uv: glam::Vec2,
 }
 
 impl Default for SuiteConfig<'_> {
@@ -84,6 +88,7 @@ impl Default for SuiteConfig<'_> {
             angles: None,
             threads: 0,
             reciprocity: Reciprocity::Test,
+            uv: glam::Vec2::ZERO,
         }
     }
 }
@@ -259,7 +264,7 @@ pub fn run_suite<B: BsdfModel + Sync + ?Sized>(
     cfg: &SuiteConfig,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> SuiteReport {
-    let sp = ShadingPoint::default();
+    let sp = ShadingPoint::at_uv(cfg.uv.x, cfg.uv.y);
     let flags = bsdf.flags();
     let all_delta = flags.is_all_delta();
     let angles: Vec<f32> = match &cfg.angles {

@@ -47,6 +47,13 @@ pub struct Perturbed<P> {
     pub use_shadowing_function: bool,
 }
 
+/// Whether two directions lie strictly on the same side of their frames' surfaces (false for
+/// NaN or grazing directions).
+#[inline]
+fn same_side(a: Vec3, b: Vec3) -> bool {
+    a.z * b.z > 0.0
+}
+
 /// tan²θ of a unit direction in the local frame.
 #[inline]
 fn tan2_theta(v: Vec3) -> f32 {
@@ -125,7 +132,7 @@ impl<P: Perturbation> BsdfModel for Perturbed<P> {
     fn pdf(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> f32 {
         let f = self.frame(sp, wi);
         let (pwi, pwo) = (f.to_local(wi), f.to_local(wo));
-        if !(wo.z * pwo.z > 0.0) {
+        if !same_side(wo, pwo) {
             return 0.0;
         }
         self.nested.pdf(ctx, &Self::nested_point(sp, &f), pwi, pwo)
@@ -140,7 +147,7 @@ impl<P: Perturbation> BsdfModel for Perturbed<P> {
     ) -> (Spectrum, f32) {
         let f = self.frame(sp, wi);
         let (pwi, pwo) = (f.to_local(wi), f.to_local(wo));
-        if !(wo.z * pwo.z > 0.0) {
+        if !same_side(wo, pwo) {
             return (Spectrum::ZERO, 0.0);
         }
         let nsp = Self::nested_point(sp, &f);
@@ -165,11 +172,11 @@ impl<P: Perturbation> BsdfModel for Perturbed<P> {
             return None;
         }
         let wo = f.to_world(s.wo);
-        if !(s.wo.z * wo.z > 0.0) {
+        if !same_side(s.wo, wo) {
             return None;
         }
         s.wo = wo;
-        s.weight = s.weight * self.shadowing(&f, wo);
+        s.weight *= self.shadowing(&f, wo);
         Some(s)
     }
 }

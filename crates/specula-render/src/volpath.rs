@@ -31,12 +31,12 @@
 use crate::accel::{offset_ray_origin, SHADOW_EPSILON};
 use crate::core::{Hit, Ray, Result, SceneError};
 use crate::integrator::Counters;
-use crate::media::{is_null_bsdf, FreeFlight};
+use crate::media::FreeFlight;
+use crate::sampler::Sampler;
 use crate::scene::{Light, PathSettings, Scene};
 use crate::xml::Node;
 use glam::Vec3;
-use specula_bsdf::rng::Pcg32;
-use specula_bsdf::{Bsdf, BsdfContext, BsdfModel, LobeFlags, Rgb, ShadingPoint};
+use specula_bsdf::{Bsdf, BsdfContext, BsdfModel, LobeFlags, Rgb};
 
 /// Reads a `<integrator type="volpath">` node.
 pub fn settings_from_node(n: &Node) -> Result<PathSettings> {
@@ -75,18 +75,22 @@ fn mis(a: f32, b: f32) -> f32 {
 }
 
 /// What a shadow ray travelling along `d` keeps when it crosses a surface with `bsdf` (Mitsuba's
-/// `eval_null_transmission`): everything through `null`, the slab transmittance
-/// (1 − R)·`specular_transmittance` through `thindielectric`; `None` (blocked) otherwise.
+/// `eval_null_transmission`): everything through `null`, 1 − opacity through `mask`, the slab
+/// transmittance (1 − R)·`specular_transmittance` through `thindielectric`; `None` (blocked)
+/// otherwise.
 #[inline]
-fn null_transmission(bsdf: &Bsdf, si: &crate::core::SurfaceGeometry, d: Vec3) -> Option<Rgb> {
-    if is_null_bsdf(bsdf) {
-        return Some(Rgb::ONE);
-    }
+fn null_transmission(
+    bsdf: &Bsdf,
+    si: &crate::core::SurfaceGeometry,
+    sp: &specula_bsdf::ShadingPoint,
+    d: Vec3,
+) -> Option<Rgb> {
     match bsdf {
+        Bsdf::Null(_) => Some(Rgb::ONE),
+        Bsdf::Mask(m) => Some(Rgb::splat(1.0 - m.opacity.eval(sp).clamp(0.0, 1.0))),
         Bsdf::ThinDielectric(t) => {
-            let sp = ShadingPoint { uv: si.uv, p: si.p };
             let r = t.reflectance(si.sh_frame.n.dot(d));
-            Some(t.specular_transmittance.eval(&sp) * (1.0 - r))
+            Some(t.specular_transmittance.eval(sp) * (1.0 - r))
         }
         _ => None,
     }
@@ -124,10 +128,10 @@ impl Scene {
         g.pdf_position() * dist2 / cos_l * self.vp_select_pdf()
     }
 
-    fn vp_sample_emitter(&self, x: Vec3, rng: &mut Pcg32) -> Option<EmitterSample> {
+    fn vp_sample_emitter<S: Sampler>(&self, x: Vec3, rng: &mut S) -> Option<EmitterSample> {
         let n = self.lights.len();
-        let u_sel = rng.next_f32();
-        let u = rng.next_vec2();
+        let u_sel = rng.next_1d();
+        let u = rng.next_2d();
         if n == 0 {
             return None;
         }
@@ -150,7 +154,7 @@ impl Scene {
                 Some(EmitterSample {
                     wi,
                     dist,
-                    weight: *radiance / pdf,
+                    weight: radiance.eval(ps.uv, ps.p) / pdf,
                     pdf,
                     is_delta: false,
                 })
@@ -200,7 +204,8 @@ impl Scene {
             }
             let si = self.geometry[shape].surface(&ray, &h);
             let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-            match null_transmission(bsdf, &si, d) {
+            let sp = si.shading_point(&h, self.geometry[shape].surface_data());
+            match null_transmission(bsdf, &si, &sp, d) {
                 Some(t) => tr *= t,
                 None => return Rgb::ZERO,
             }
@@ -220,11 +225,11 @@ impl Scene {
 
     /// Next-event estimation from a point `x` inside `medium`: the sampled light and the
     /// transmittance towards it (`None` when blocked).
-    fn vp_nee_medium(
+    fn vp_nee_medium<S: Sampler>(
         &self,
         x: Vec3,
         medium: Option<u32>,
-        rng: &mut Pcg32,
+        rng: &mut S,
         counters: &mut Counters,
     ) -> Option<(EmitterSample, Rgb)> {
         let ls = self.vp_sample_emitter(x, rng)?;
@@ -242,14 +247,14 @@ impl Scene {
 
     /// Radiance along a camera ray (one sample) with Mitsuba's `volpath`; `hit` is
     /// `intersect(&ray)`.
-    pub fn li_volpath(
+    pub fn li_volpath<S: Sampler>(
         &self,
+        settings: &PathSettings,
         mut ray: Ray,
         hit: Option<Hit>,
-        rng: &mut Pcg32,
+        rng: &mut S,
         counters: &mut Counters,
     ) -> Rgb {
-        let settings = self.integrator;
         let ctx = BsdfContext::RADIANCE;
         let max_depth = if settings.max_depth < 0 {
             u32::MAX
@@ -264,7 +269,7 @@ impl Scene {
         let mut medium = self.camera_medium;
         // spectral MIS over the hero channel (see crate::media::homogeneous): `throughput` is
         // f / p_hero and `r_u` is p_c / p_hero; contributions are divided by mean(r_u)
-        let hero = ((rng.next_f32() * 3.0) as usize).min(2);
+        let hero = ((rng.next_1d() * 3.0) as usize).min(2);
         let mut r_u = Rgb::ONE;
         let mut specular_chain = !settings.hide_emitters;
         let mut last_p = ray.o;
@@ -277,7 +282,7 @@ impl Scene {
             }
             if depth > rr_depth {
                 let q = (throughput.max_component() / r_u.mean() * eta * eta).min(0.95);
-                if rng.next_f32() >= q {
+                if rng.next_1d() >= q {
                     break;
                 }
                 throughput /= q;
@@ -297,7 +302,7 @@ impl Scene {
             if let Some(mi) = medium {
                 let m = &self.media[mi as usize];
                 let t_max = hit.as_ref().map_or(f32::INFINITY, |h| h.t);
-                let ff = m.sample_free_flight(ray.o, ray.d, t_max, hero, rng.next_f32());
+                let ff = m.sample_free_flight(ray.o, ray.d, t_max, hero, rng.next_1d());
                 let (FreeFlight::Scatter { value, pdf, .. } | FreeFlight::Pass { value, pdf }) = ff;
                 let ph = pdf[hero];
                 if ph <= 0.0 || ph.is_nan() {
@@ -328,7 +333,7 @@ impl Scene {
                         } else {
                             specular_chain = true;
                         }
-                        let Some(ps) = phase.sample(wi, rng.next_f32(), rng.next_vec2()) else {
+                        let Some(ps) = phase.sample(wi, rng.next_1d(), rng.next_2d()) else {
                             break;
                         };
                         throughput *= ps.weight;
@@ -381,25 +386,13 @@ impl Scene {
                                 self.vp_area_pdf(hit.shape, last_p, si.p, si.n_geo),
                             )
                         };
-                        result += throughput * *radiance * (w / r_u.mean());
+                        result += throughput * radiance.eval(si.uv, si.p) * (w / r_u.mean());
                     }
                 }
             }
             let sm = self.shape_media[shape];
             let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-            if is_null_bsdf(bsdf) {
-                // an index-matched boundary: go straight on, possibly into another medium
-                if sm.is_transition() {
-                    medium = sm.target(si.n_geo, ray.d);
-                }
-                ray = Ray {
-                    o: offset_ray_origin(si.p, si.n_geo, ray.d),
-                    d: ray.d,
-                    t_max: f32::INFINITY,
-                };
-                continue;
-            }
-            let sp = ShadingPoint { uv: si.uv, p: si.p };
+            let sp = si.shading_point(&hit, self.geometry[shape].surface_data());
 
             // next-event estimation
             if bsdf.flags().intersects(LobeFlags::SMOOTH) && depth + 1 < max_depth {
@@ -434,7 +427,7 @@ impl Scene {
             }
 
             // BSDF sampling
-            let Some(bs) = bsdf.sample(&ctx, &sp, wi, rng.next_f32(), rng.next_vec2()) else {
+            let Some(bs) = bsdf.sample(&ctx, &sp, wi, rng.next_1d(), rng.next_2d()) else {
                 break;
             };
             let d = si.sh_frame.to_world(bs.wo).normalize();
@@ -544,7 +537,7 @@ mod tests {
         let want = [0.5, 0.7, 1.0];
         for (extra, origin) in [(r#"<ref id="m"/>"#, "0, 0.2, 0.1"), ("", "0, 0, -4")] {
             let s = scene(FURNACE, extra, origin, "volpath").unwrap();
-            assert!(s.volpath && s.media.len() == 1);
+            assert!(s.volpath.is_some() && s.media.len() == 1);
             let m = mean(&s, 512);
             for c in 0..3 {
                 assert!(

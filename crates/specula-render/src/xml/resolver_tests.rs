@@ -199,3 +199,34 @@ fn aliases_name_the_same_plugin() {
     .to_string();
     assert!(e.contains("already defined"), "{e}");
 }
+
+#[test]
+fn forward_references_are_reordered() {
+    // Mitsuba's integrator_depth_*.xml reference an area emitter declared at the end
+    let text = r#"<scene version="3.0.0">
+    <shape type="sphere"><ref id="m"/><ref id="light"/></shape>
+    <bsdf type="twosided" id="m"><ref id="inner"/></bsdf>
+    <bsdf type="diffuse" id="inner"/>
+    <emitter type="area" id="light"><rgb name="radiance" value="1"/></emitter>
+    <emitter type="point" id="p"/>
+</scene>"#;
+    let root = parse_scene_str(text, "t.xml", Path::new("."), &[]).unwrap();
+    let order: Vec<String> = root
+        .children
+        .iter()
+        .map(|c| format!("{}:{}", c.tag, c.id.as_deref().unwrap_or("-")))
+        .collect();
+    assert_eq!(order, ["bsdf:inner", "bsdf:m", "shape:-", "emitter:p"]);
+    // the area emitter moved into the shape that references it
+    let shape = &root.children[2];
+    assert_eq!(shape.children[1].tag, "emitter");
+    assert_eq!(shape.children[1].plugin_type, "area");
+    let cyc = r#"<scene version="3.0.0">
+    <bsdf type="twosided" id="a"><ref id="b"/></bsdf>
+    <bsdf type="twosided" id="b"><ref id="a"/></bsdf>
+</scene>"#;
+    let e = parse_scene_str(cyc, "t.xml", Path::new("."), &[])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("depends on it in turn"), "{e}");
+}

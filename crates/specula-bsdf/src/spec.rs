@@ -10,7 +10,8 @@
 //!
 //! The plugin name comes first, then `key=value` pairs, then nested BSDFs in braces. A value
 //! is a boolean (`true`/`false`), a number, three comma-separated numbers (an RGB colour), or
-//! otherwise a string (quote it if it contains spaces).
+//! otherwise a string (quote it if it contains spaces). Nested braces may go
+//! [`MAX_SPEC_DEPTH`] levels deep; every error names the column of the spec it is about.
 
 use crate::build::build_bsdf;
 use crate::models::Bsdf;
@@ -112,12 +113,35 @@ fn parse_value(w: &str, quoted: bool, col: usize) -> Result<Value, BuildError> {
     Ok(Value::Str(w.to_string()))
 }
 
-fn parse_plugin(toks: &[(Tok, usize)], pos: &mut usize) -> Result<Bsdf, BuildError> {
-    let (name, col) = match toks.get(*pos) {
-        Some((Tok::Word(w, false), c)) => (w.clone(), *c),
-        Some((_, c)) => return Err(BuildError::new(loc(*c), "expected a plugin name")),
-        None => return Err(BuildError::new(None, "empty material spec")),
+/// The deepest nesting of braces in a material spec (real materials nest two or three deep);
+/// the limit keeps the recursive parser and builder far from the end of the stack.
+pub const MAX_SPEC_DEPTH: usize = 64;
+
+/// Parses one plugin starting at `toks[*pos]`. `open` is the column of the `{` this plugin
+/// is nested in (`None` at the top level); `depth` counts the braces around it.
+fn parse_plugin(
+    toks: &[(Tok, usize)],
+    pos: &mut usize,
+    open: Option<usize>,
+    depth: usize,
+) -> Result<Bsdf, BuildError> {
+    let (name, col) = match (toks.get(*pos), open) {
+        (Some((Tok::Word(w, false), c)), _) => (w.clone(), *c),
+        (Some((_, c)), _) => return Err(BuildError::new(loc(*c), "expected a plugin name")),
+        (None, Some(c)) => {
+            return Err(BuildError::new(
+                loc(c),
+                "expected a plugin name after '{', found the end of the spec",
+            ))
+        }
+        (None, None) => return Err(BuildError::new(loc(1), "empty material spec")),
     };
+    if depth > MAX_SPEC_DEPTH {
+        return Err(BuildError::new(
+            loc(col),
+            format!("plugins nested more than {MAX_SPEC_DEPTH} deep (the limit)"),
+        ));
+    }
     *pos += 1;
     let mut props = Props::new(name, loc(col));
     while let Some((t, c)) = toks.get(*pos) {
@@ -138,7 +162,7 @@ fn parse_plugin(toks: &[(Tok, usize)], pos: &mut usize) -> Result<Bsdf, BuildErr
             }
             Tok::Open => {
                 *pos += 1;
-                let child = parse_plugin(toks, pos)?;
+                let child = parse_plugin(toks, pos, Some(*c), depth + 1)?;
                 match toks.get(*pos) {
                     Some((Tok::Close, _)) => *pos += 1,
                     _ => return Err(BuildError::new(loc(*c), "unclosed '{'")),
@@ -156,7 +180,7 @@ fn parse_plugin(toks: &[(Tok, usize)], pos: &mut usize) -> Result<Bsdf, BuildErr
 pub fn parse_spec(s: &str) -> Result<Bsdf, BuildError> {
     let toks = tokenize(s)?;
     let mut pos = 0;
-    let b = parse_plugin(&toks, &mut pos)?;
+    let b = parse_plugin(&toks, &mut pos, None, 0)?;
     if let Some((_, c)) = toks.get(pos) {
         return Err(BuildError::new(
             loc(*c),

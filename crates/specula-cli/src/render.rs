@@ -130,6 +130,15 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     });
     bar.finish_and_clear();
 
+    if result.overflowed > 0 {
+        return Err(CliError::usage(format!(
+            "{}: {} of {} pixels overflowed (values beyond the f32 range, 3.4e38): the scene's \
+             light is too strong to store; nothing written",
+            output.display(),
+            result.overflowed,
+            w * h
+        )));
+    }
     let write = match ext.as_deref() {
         Some("png") => specula_render::image_io::write_png(&output, w, h, &result.rgb),
         _ if !result.aovs.is_empty() => specula_render::image_io::write_exr_with_channels(

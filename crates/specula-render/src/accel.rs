@@ -1,7 +1,10 @@
 //! Ray intersection: one 8-wide BVH over every triangle, sphere and disk of the scene.
 //!
-//! **Structure.** The binary tree is built by obvhs (PLOC, then a thorough reinsertion pass)
-//! and collapsed into nodes of up to 8 children (greedily opening the child with the largest
+//! **Structure.** The binary tree is built top-down with the surface area heuristic over 32
+//! centroid bins per axis ([`build_binary`]; O(n log n) on any input: identical centroids and
+//! subtrees deeper than [`MAX_SAH_DEPTH`] are split at the object median, and the heuristic
+//! is evaluated in double precision, so degenerate, zero-area and huge-coordinate geometry
+//! build as fast as any other) and collapsed into nodes of up to 8 children (greedily opening the child with the largest
 //! surface area). Each node stores its children's boxes as arrays of f32 (one array per
 //! plane), so one ray is tested against all 8 boxes at once; subtrees of at most 8 triangles
 //! become leaves of one or two `TriPacket`s (4 triangles' vertices, one array per
@@ -50,9 +53,6 @@
 use crate::core::{Hit, Ray};
 use crate::geometry::{Geometry, ShapeGroup};
 use glam::{DVec3, Mat3, Vec3, Vec3A};
-use obvhs::aabb::Aabb;
-use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
-use obvhs::BvhBuildParams;
 use std::mem::MaybeUninit;
 use std::sync::Arc;
 
@@ -401,7 +401,10 @@ impl Bvh {
             // box tests never rejects a ray that hits the primitive.
             let scale = lo.abs().max(hi.abs()).max_element();
             let pad = Vec3::splat(scale * 4e-7 + (hi - lo).max_element() * 1e-6 + 1e-30);
-            aabbs.push(Aabb::new(Vec3A::from(lo - pad), Vec3A::from(hi + pad)));
+            // (clamped: padding a box near ±f32::MAX must not make it infinite)
+            let lo = (lo - pad).max(Vec3::splat(f32::MIN));
+            let hi = (hi + pad).min(Vec3::splat(f32::MAX));
+            aabbs.push((lo, hi));
             kept.push(p);
         }
         let mut out = Bvh {
@@ -412,18 +415,7 @@ impl Bvh {
         if kept.is_empty() {
             return out;
         }
-        let config = BvhBuildParams::slow_build();
-        let indices = (0..kept.len() as u32).collect();
-        let mut bvh2 = config.ploc_search_distance.build(
-            &aabbs,
-            indices,
-            config.sort_precision,
-            config.search_depth_threshold,
-        );
-        // a thorough reinsertion pass over all nodes: ~3 % faster traversal on meshes.xml than
-        // the preset ratio 0.2 (build 60 → 150 ms)
-        ReinsertionOptimizer::run(&mut bvh2, 1.0, None);
-        let tree = binary_tree(&bvh2, &aabbs, &kept);
+        let tree = build_binary(&aabbs, &kept);
         out.collapse(&tree, &kept);
         out
     }
@@ -557,70 +549,76 @@ impl Bvh {
     }
 }
 
-/// obvhs' binary tree as [`BNode`]s with one primitive per leaf (a leaf of several primitives
-/// is split in halves), root first, with primitive counts filled in.
-fn binary_tree(bvh2: &obvhs::bvh2::Bvh2, aabbs: &[Aabb], prims: &[Prim]) -> Vec<BNode> {
-    let mut tree: Vec<BNode> = Vec::with_capacity(2 * prims.len());
-    let leaf = |p: u32| {
-        let bb = &aabbs[p as usize];
-        BNode {
-            lo: Vec3::from(bb.min),
-            hi: Vec3::from(bb.max),
-            kids: [p, NO_CHILD],
-            count: 1,
-            tris_only: matches!(prims[p as usize].shape, PrimShape::Triangle(_)),
-        }
-    };
-    enum Src<'a> {
-        Node(usize),
-        Prims(&'a [u32]),
-    }
-    // (source, parent, which child)
-    let mut todo: Vec<(Src, u32, usize)> = vec![(Src::Node(0), u32::MAX, 0)];
-    while let Some((src, parent, which)) = todo.pop() {
+/// Centroid bins per axis of the SAH build.
+const BINS: usize = 32;
+/// Subtrees deeper than this are split at the object median rather than by the surface area
+/// heuristic, which bounds the build at O(n log n) even where the heuristic keeps splitting
+/// off one primitive at a time (exponentially spaced geometry); ordinary scenes of millions
+/// of triangles stay well above it.
+const MAX_SAH_DEPTH: u32 = 48;
+
+/// Surface area (halved) of a box, in double precision (no overflow for huge boxes).
+fn half_area_f64(lo: Vec3, hi: Vec3) -> f64 {
+    let e = (hi.as_dvec3() - lo.as_dvec3()).max(DVec3::ZERO);
+    e.x * e.y + e.y * e.z + e.z * e.x
+}
+
+/// The binary build tree over `boxes` (finite, one per primitive of `prims`): one primitive
+/// per leaf, root first, parents before children, depth-first, counts filled in.
+///
+/// Top-down binned SAH: each node bins its primitives' centroids into [`BINS`] slots along
+/// each axis of the centroid bounds and splits at the cheapest bin boundary (cost: area ×
+/// count on each side). Primitives whose centroids coincide, and subtrees deeper than
+/// [`MAX_SAH_DEPTH`], are split at the object median; every split is a partition of an index
+/// range, so the whole build is O(n log n) with an explicit stack (no recursion).
+fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> Vec<BNode> {
+    let n = boxes.len();
+    let cent: Vec<DVec3> = boxes
+        .iter()
+        .map(|(lo, hi)| (lo.as_dvec3() + hi.as_dvec3()) * 0.5)
+        .collect();
+    let mut idx: Vec<u32> = (0..n as u32).collect();
+    let mut tree: Vec<BNode> = Vec::with_capacity(2 * n);
+    // (first, end, parent, which child, depth)
+    let mut todo: Vec<(usize, usize, u32, usize, u32)> = vec![(0, n, NO_CHILD, 0, 0)];
+    while let Some((s, e, parent, which, depth)) = todo.pop() {
         let index = tree.len() as u32;
-        match src {
-            Src::Node(n) => {
-                let node = &bvh2.nodes[n];
-                if node.is_leaf() {
-                    let first = node.first_index as usize;
-                    let ids = &bvh2.primitive_indices[first..first + node.prim_count as usize];
-                    todo.push((Src::Prims(ids), parent, which));
-                    continue;
-                }
-                tree.push(BNode {
-                    lo: Vec3::from(node.aabb.min),
-                    hi: Vec3::from(node.aabb.max),
-                    kids: [NO_CHILD, NO_CHILD],
-                    count: 0,
-                    tris_only: true,
-                });
-                let c = node.first_index as usize;
-                todo.push((Src::Node(c + 1), index, 1));
-                todo.push((Src::Node(c), index, 0));
-            }
-            Src::Prims([p]) => tree.push(leaf(*p)),
-            Src::Prims(ids) => {
-                let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-                for &p in ids {
-                    lo = lo.min(Vec3::from(aabbs[p as usize].min));
-                    hi = hi.max(Vec3::from(aabbs[p as usize].max));
-                }
-                tree.push(BNode {
-                    lo,
-                    hi,
-                    kids: [NO_CHILD, NO_CHILD],
-                    count: 0,
-                    tris_only: true,
-                });
-                let (a, b) = ids.split_at(ids.len() / 2);
-                todo.push((Src::Prims(b), index, 1));
-                todo.push((Src::Prims(a), index, 0));
-            }
-        }
-        if parent != u32::MAX {
+        if parent != NO_CHILD {
             tree[parent as usize].kids[which] = index;
         }
+        if e - s == 1 {
+            let p = idx[s];
+            let (lo, hi) = boxes[p as usize];
+            tree.push(BNode {
+                lo,
+                hi,
+                kids: [p, NO_CHILD],
+                count: 1,
+                tris_only: matches!(prims[p as usize].shape, PrimShape::Triangle(_)),
+            });
+            continue;
+        }
+        let range = &mut idx[s..e];
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        let (mut clo, mut chi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for &i in range.iter() {
+            let (blo, bhi) = boxes[i as usize];
+            lo = lo.min(blo);
+            hi = hi.max(bhi);
+            let c = cent[i as usize];
+            clo = clo.min(c);
+            chi = chi.max(c);
+        }
+        let mid = split(range, boxes, &cent, clo, chi, depth);
+        tree.push(BNode {
+            lo,
+            hi,
+            kids: [NO_CHILD, NO_CHILD],
+            count: 0,
+            tris_only: true,
+        });
+        todo.push((s + mid, e, index, 1, depth + 1));
+        todo.push((s, s + mid, index, 0, depth + 1));
     }
     // children come after their parents: sum up in reverse
     for i in (0..tree.len()).rev() {
@@ -631,6 +629,100 @@ fn binary_tree(bvh2: &obvhs::bvh2::Bvh2, aabbs: &[Aabb], prims: &[Prim]) -> Vec<
         }
     }
     tree
+}
+
+/// Reorders `range` (at least 2 primitives, centroid bounds `clo..chi`) into two non-empty
+/// parts and returns the length of the first.
+fn split(
+    range: &mut [u32],
+    boxes: &[(Vec3, Vec3)],
+    cent: &[DVec3],
+    clo: DVec3,
+    chi: DVec3,
+    depth: u32,
+) -> usize {
+    let ext = chi - clo;
+    let axis = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
+    let median = |range: &mut [u32]| {
+        let m = range.len() / 2;
+        if ext[axis] > 0.0 {
+            range.select_nth_unstable_by(m, |&a, &b| {
+                cent[a as usize][axis].total_cmp(&cent[b as usize][axis])
+            });
+        }
+        m
+    };
+    if !(ext[axis] > 0.0) || depth >= MAX_SAH_DEPTH {
+        return median(range);
+    }
+    let bin_of = |c: f64, a: usize| -> usize {
+        let k = ((c - clo[a]) * (BINS as f64 / ext[a])) as usize;
+        k.min(BINS - 1)
+    };
+    // best (cost, axis, first bin of the right side)
+    let mut best = (f64::INFINITY, usize::MAX, 0usize);
+    for a in 0..3 {
+        if !(ext[a] > 0.0) {
+            continue;
+        }
+        let mut bins = [(Vec3::INFINITY, Vec3::NEG_INFINITY, 0u32); BINS];
+        for &i in range.iter() {
+            let b = &mut bins[bin_of(cent[i as usize][a], a)];
+            let (blo, bhi) = boxes[i as usize];
+            b.0 = b.0.min(blo);
+            b.1 = b.1.max(bhi);
+            b.2 += 1;
+        }
+        // right-to-left sweep: cost of the right side starting at bin k
+        let mut right = [0.0f64; BINS];
+        let (mut rlo, mut rhi, mut rn) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0u32);
+        for k in (1..BINS).rev() {
+            rlo = rlo.min(bins[k].0);
+            rhi = rhi.max(bins[k].1);
+            rn += bins[k].2;
+            right[k] = if rn == 0 {
+                f64::NAN
+            } else {
+                half_area_f64(rlo, rhi) * rn as f64
+            };
+        }
+        let (mut llo, mut lhi, mut ln) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0u32);
+        for k in 1..BINS {
+            llo = llo.min(bins[k - 1].0);
+            lhi = lhi.max(bins[k - 1].1);
+            ln += bins[k - 1].2;
+            if ln == 0 || right[k].is_nan() {
+                continue;
+            }
+            let cost = half_area_f64(llo, lhi) * ln as f64 + right[k];
+            if cost < best.0 {
+                best = (cost, a, k);
+            }
+        }
+    }
+    if best.1 == usize::MAX {
+        return median(range);
+    }
+    let (_, a, k) = best;
+    // partition: bins below k first
+    let mut m = 0;
+    for j in 0..range.len() {
+        if bin_of(cent[range[j] as usize][a], a) < k {
+            range.swap(m, j);
+            m += 1;
+        }
+    }
+    if m == 0 || m == range.len() {
+        // cannot happen (both sides counted non-empty), but never build an endless loop
+        return median(range);
+    }
+    m
 }
 
 /// Per-ray constants of the watertight ray/triangle test.
@@ -1813,7 +1905,7 @@ fn intersect_disk(ray: &Ray, m: &Mat3, tr: Vec3, t_max: f32) -> Option<(f32, f32
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh_io::{load_obj, load_ply};
+    use crate::mesh_io::{load_obj, load_ply, MeshData};
     use glam::{Mat4, Vec2};
 
     fn asset(name: &str) -> std::path::PathBuf {
@@ -2216,6 +2308,64 @@ mod tests {
                 }
             }
             assert!(n > 500);
+        }
+    }
+
+    /// Reproducers of `../shared/robustness` (`bvh_degenerate_hang`, `bvh_scale0_hang`,
+    /// `big_polygon_bvh_hang`, `bvh_huge_translate_panic`): degenerate and huge-coordinate
+    /// geometry builds in O(n log n) and is still intersected correctly.
+    #[test]
+    fn degenerate_and_huge_geometry_build_fast() {
+        let mesh = |positions: Vec<Vec3>, indices: Vec<[u32; 3]>, m: Mat4| {
+            let data = MeshData {
+                positions,
+                normals: None,
+                uvs: None,
+                indices,
+            };
+            Geometry::mesh(data, m, false, false).unwrap()
+        };
+        let tri = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        let fan = |n: u32| (0..n).map(|_| [0, 1, 2]).collect::<Vec<_>>();
+        // 100 000 identical triangles: was quadratic (20 000 took 113 s)
+        let t = std::time::Instant::now();
+        let bvh = Bvh::build(&[mesh(tri.clone(), fan(100_000), Mat4::IDENTITY)]);
+        assert!(t.elapsed().as_secs_f64() < 5.0, "{:?}", t.elapsed());
+        let h = bvh
+            .intersect(&Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z))
+            .unwrap();
+        assert!((h.t - 1.0).abs() < 1e-6);
+        // a mesh scaled to a point, and one polygon fanned into 90 000 slivers
+        let n = 90_000u32;
+        let ring: Vec<Vec3> = (0..n)
+            .map(|i| {
+                let a = i as f32 / n as f32 * std::f32::consts::TAU;
+                Vec3::new(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
+        let slivers: Vec<[u32; 3]> = (1..n - 1).map(|k| [0, k, k + 1]).collect();
+        let t = std::time::Instant::now();
+        let bvh = Bvh::build(&[
+            mesh(ring.clone(), slivers.clone(), Mat4::from_scale(Vec3::ZERO)),
+            mesh(ring, slivers, Mat4::IDENTITY),
+        ]);
+        assert!(t.elapsed().as_secs_f64() < 5.0, "{:?}", t.elapsed());
+        let h = bvh
+            .intersect(&Ray::new(Vec3::new(0.1, -0.3, 1.0), -Vec3::Z))
+            .unwrap();
+        assert!((h.t - 1.0).abs() < 1e-6 && h.shape == 1);
+        // boxes near ±f32::MAX (a cube translated to z = 3e38 panicked in the old builder)
+        for z in [1e30f32, 3e38, -3e38] {
+            let geoms = [
+                Geometry::cube(Mat4::from_translation(Vec3::new(0.0, 0.0, z)), false),
+                Geometry::sphere(Vec3::new(0.0, 0.0, z), 1e37, Mat4::IDENTITY, false),
+                mesh(tri.clone(), fan(3), Mat4::IDENTITY),
+            ];
+            let bvh = Bvh::build(&geoms);
+            let h = bvh
+                .intersect(&Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z))
+                .unwrap();
+            assert!((h.t - 1.0).abs() < 1e-6 && h.shape == 2, "{z}");
         }
     }
 

@@ -176,14 +176,14 @@ impl Emitter {
                 n.describe()
             )));
         }
-        let rgb = |name: &str| n.emission_rgb(name, [1.0; 3]).map(Rgb);
+        let rgb = |name: &str| light_rgb(n, name);
         let e = match n.plugin_type.as_str() {
             "point" => {
                 let intensity = rgb("intensity")?;
                 let position = n.point_opt("position")?;
                 let to_world = n.transform("to_world")?;
                 n.check_unused(&["intensity", "position", "to_world"])?;
-                match (position, to_world) {
+                let e = match (position, to_world) {
                     (Some(_), Some(_)) => {
                         return Err(
                             n.error("point: give either 'position' or 'to_world', not both")
@@ -192,7 +192,16 @@ impl Emitter {
                     (Some(p), None) => Emitter::point(p, intensity),
                     (None, Some(m)) => Emitter::point_from_to_world(&m, intensity),
                     (None, None) => Emitter::point(Vec3::ZERO, intensity),
+                };
+                if let Emitter::Point(l) = &e {
+                    if !l.position.is_finite() {
+                        return Err(n.error(format!(
+                            "point: the position {} is not finite",
+                            l.position
+                        )));
+                    }
                 }
+                e
             }
             "directional" => {
                 let irradiance = rgb("irradiance")?;
@@ -224,6 +233,13 @@ impl Emitter {
                     .string_opt("filename")?
                     .ok_or_else(|| n.error("envmap needs a 'filename'"))?;
                 let scale = n.float("scale", 1.0)?;
+                if !(scale.is_finite() && scale >= 0.0) {
+                    let loc = n.prop("scale").map_or(&n.loc, |p| &p.loc);
+                    return Err(SceneError::new(
+                        Some(loc.clone()),
+                        format!("envmap: 'scale' must be finite and non-negative, not {scale}"),
+                    ));
+                }
                 let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
                 // Only changes how Mitsuba samples the map (unbiased either way).
                 let _ = n.bool("mis_compensation", false)?;
@@ -805,7 +821,7 @@ impl Emitter {
         let texture = take_textures(n, textures, &["texture"])?
             .first()
             .map(|(_, t)| Arc::clone(t));
-        let intensity = Rgb(n.emission_rgb("intensity", [1.0; 3])?);
+        let intensity = light_rgb(n, "intensity")?;
         let cutoff = n.float("cutoff_angle", 20.0)?;
         let beam = n.float("beam_width", cutoff * 0.75)?;
         let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
@@ -820,7 +836,7 @@ impl Emitter {
         let texture = take_textures(n, textures, &["irradiance"])?
             .first()
             .map(|(_, t)| Arc::clone(t));
-        let irradiance = Rgb(n.emission_rgb("irradiance", [1.0; 3])?);
+        let irradiance = light_rgb(n, "irradiance")?;
         let scale = n.float("scale", 1.0)?;
         let (w, h) = texture.as_ref().map_or((1, 1), |t| t.resolution());
         let aspect = w as f64 / h as f64;
@@ -845,6 +861,24 @@ impl Emitter {
         .map(|l| Emitter::Projector(Box::new(l)))
         .map_err(|m| n.error(format!("projector: {m}")))
     }
+}
+
+/// A light's colour parameter (`radiance`, `intensity`, `irradiance`; default 1): finite and
+/// non-negative in every channel, or an error at the property. Negative or infinite light
+/// gives negative or NaN pixels, so it is refused (Mitsuba accepts it).
+pub fn light_rgb(n: &Node, name: &str) -> Result<Rgb> {
+    let v = n.emission_rgb(name, [1.0; 3])?;
+    if v.iter().all(|c| c.is_finite() && *c >= 0.0) {
+        return Ok(Rgb(v));
+    }
+    let loc = n.prop(name).map_or(&n.loc, |p| &p.loc);
+    Err(SceneError::new(
+        Some(loc.clone()),
+        format!(
+            "{}: '{name}' must be finite and non-negative, not ({}, {}, {})",
+            n.plugin_type, v[0], v[1], v[2]
+        ),
+    ))
 }
 
 #[cfg(test)]

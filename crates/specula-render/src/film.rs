@@ -12,6 +12,15 @@
 //!
 //! The JIT variants (`llvm_ad_rgb`, which rendered the references) evaluate the filter
 //! exactly; the scalar variants use a 31-entry table (`eval_discretized`) instead.
+//!
+//! Limits (Specula refuses larger or invalid values with an error; Mitsuba has none):
+//! - a film has at most [`MAX_FILM_PIXELS`] pixels (8192 × 8192; 16 bytes each while
+//!   rendering) and at most [`MAX_FILM_SIDE`] pixels per side ([`check_film_size`]);
+//! - a Gaussian's `stddev` lies in [[`MIN_GAUSSIAN_STDDEV`], [`MAX_GAUSSIAN_STDDEV`]] (radius
+//!   at most 32 pixels: a wider filter splats every sample into millions of pixels, a
+//!   narrower one overflows the kernel's coefficients) ([`RFilter::gaussian_checked`]);
+//! - a developed pixel whose sums overflowed `f32` (radiance near 3.4e38) is not written as
+//!   ±∞: [`Film::develop`] reports how many there were (see `render::RenderOutput`).
 
 use glam::Vec2;
 use specula_bsdf::Rgb;
@@ -55,7 +64,50 @@ impl Default for RFilter {
     }
 }
 
+/// The most pixels a film may have (8192 × 8192).
+pub const MAX_FILM_PIXELS: usize = 8192 * 8192;
+/// The most pixels a film side may have.
+pub const MAX_FILM_SIDE: usize = 1 << 16;
+/// The smallest Gaussian `stddev` (pixels): the kernel's coefficients scale as σ⁻¹⁸ and
+/// overflow `f32` below about 0.008.
+pub const MIN_GAUSSIAN_STDDEV: f32 = 0.01;
+/// The largest Gaussian `stddev` (pixels): radius 4σ = 32 pixels.
+pub const MAX_GAUSSIAN_STDDEV: f32 = 8.0;
+
+/// Checks a film size against [`MAX_FILM_SIDE`] and [`MAX_FILM_PIXELS`]; the error names the
+/// size and the limit.
+pub fn check_film_size(width: i64, height: i64) -> Result<(), String> {
+    if width <= 0 || height <= 0 {
+        return Err(format!("invalid film size {width}×{height}"));
+    }
+    if width > MAX_FILM_SIDE as i64 || height > MAX_FILM_SIDE as i64 {
+        return Err(format!(
+            "film size {width}×{height}: a side may have at most {MAX_FILM_SIDE} pixels"
+        ));
+    }
+    let pixels = width as u64 * height as u64;
+    if pixels > MAX_FILM_PIXELS as u64 {
+        return Err(format!(
+            "film size {width}×{height} ({pixels} pixels): at most {MAX_FILM_PIXELS} pixels \
+             (8192×8192) are supported"
+        ));
+    }
+    Ok(())
+}
+
 impl RFilter {
+    /// [`RFilter::gaussian`] for a `stddev` from a scene: finite and within
+    /// [[`MIN_GAUSSIAN_STDDEV`], [`MAX_GAUSSIAN_STDDEV`]], or an error naming the limits.
+    pub fn gaussian_checked(stddev: f32) -> Result<Self, String> {
+        if (MIN_GAUSSIAN_STDDEV..=MAX_GAUSSIAN_STDDEV).contains(&stddev) {
+            return Ok(RFilter::gaussian(stddev));
+        }
+        Err(format!(
+            "gaussian: 'stddev' is {stddev}; it must lie in \
+             [{MIN_GAUSSIAN_STDDEV}, {MAX_GAUSSIAN_STDDEV}] pixels (radius 4·stddev at most 32)"
+        ))
+    }
+
     /// Mitsuba's `gaussian` with standard deviation `stddev` (pixels).
     pub fn gaussian(stddev: f32) -> Self {
         let radius = 4.0 * stddev;
@@ -288,18 +340,31 @@ impl Film {
     }
 
     /// The image: linear RGB per pixel, row-major, top row first; Σ w·rgb / Σ w, or 0 where
-    /// no sample landed.
+    /// no sample landed (and where the sums overflowed: see [`Film::develop_counting`]).
     pub fn develop(&self) -> Vec<f32> {
+        self.develop_counting().0
+    }
+
+    /// [`Film::develop`], and how many pixels overflowed. Samples are finite, but their sums
+    /// can still overflow `f32` (values near 3.4e38): such a pixel is black in the image and
+    /// counted here, so that the caller reports it instead of writing ±∞ or NaN.
+    pub fn develop_counting(&self) -> (Vec<f32>, usize) {
         let mut out = vec![0.0f32; 3 * self.width * self.height];
+        let mut overflowed = 0;
         for (i, &w) in self.weight.iter().enumerate() {
             if w != 0.0 {
                 let inv = 1.0 / w;
+                let px = &mut out[3 * i..3 * i + 3];
                 for c in 0..3 {
-                    out[3 * i + c] = self.sum[3 * i + c] * inv;
+                    px[c] = self.sum[3 * i + c] * inv;
+                }
+                if !(w.is_finite() && px.iter().all(|v| v.is_finite())) {
+                    px.fill(0.0);
+                    overflowed += 1;
                 }
             }
         }
-        out
+        (out, overflowed)
     }
 }
 

@@ -1,9 +1,12 @@
 //! Reading and writing images: PNG and JPEG (8/16-bit, grey/RGB/RGBA), OpenEXR (half/float,
 //! RGB\[A\] or Y) and Radiance HDR in; float32 RGB OpenEXR (like Mitsuba's `hdrfilm`) and 8-bit
 //! sRGB PNG out.
+//!
+//! Limits: an image read has at most [`MAX_IMAGE_PIXELS`] pixels (16384 × 8192, the largest
+//! common environment maps); the size is checked from the header, before any pixel storage
+//! is allocated, and a larger image is refused with an error naming its size and the limit.
 
 use crate::core::{Result, SceneError};
-use std::io::Read;
 use std::path::Path;
 
 /// A decoded image: `channels` interleaved `f32` values per pixel, row-major, top row first.
@@ -63,23 +66,57 @@ pub fn linear_to_srgb(v: f32) -> f32 {
     e as f32
 }
 
+/// The most pixels an image read from a file may have (16384 × 8192).
+pub const MAX_IMAGE_PIXELS: usize = 1 << 27;
+
+fn check_image_size(width: usize, height: usize) -> std::result::Result<(), String> {
+    if width == 0 || height == 0 {
+        return Err(format!("the image is empty ({width}×{height})"));
+    }
+    match width.checked_mul(height) {
+        Some(n) if n <= MAX_IMAGE_PIXELS => Ok(()),
+        _ => Err(format!(
+            "the image is {width}×{height} pixels: at most {MAX_IMAGE_PIXELS} pixels \
+             (16384×8192) are supported"
+        )),
+    }
+}
+
 /// Reads an image. Returns it with `true` when its values are sRGB-encoded (8- or 16-bit
 /// PNG/JPEG: what Mitsuba linearises unless told `raw`), `false` when they are linear
 /// (OpenEXR, Radiance HDR). Grey+alpha images keep only the grey channel.
 pub fn read_image(path: &Path) -> Result<(Image, bool)> {
-    let mut magic = [0u8; 4];
-    let n = std::fs::File::open(path)
-        .and_then(|mut f| f.read(&mut magic))
+    let bytes = std::fs::read(path)
         .map_err(|e| SceneError::file(path, format!("cannot open image: {e}")))?;
-    if n == 4 && magic == [0x76, 0x2f, 0x31, 0x01] {
-        return read_exr(path).map(|img| (img, false));
-    }
-    read_with_image_crate(path)
+    decode_image(&bytes).map_err(|m| SceneError::file(path, m))
 }
 
-fn read_exr(path: &Path) -> Result<Image> {
-    let img = exr::prelude::read_first_flat_layer_from_file(path)
-        .map_err(|e| SceneError::file(path, format!("cannot read OpenEXR image: {e}")))?;
+/// [`read_image`] on the bytes of a file; the error says what is wrong (the caller names the
+/// file).
+pub fn decode_image(bytes: &[u8]) -> std::result::Result<(Image, bool), String> {
+    if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+        return read_exr(bytes).map(|img| (img, false));
+    }
+    read_with_image_crate(bytes)
+}
+
+fn read_exr(bytes: &[u8]) -> std::result::Result<Image, String> {
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let err = |e: exr::error::Error| format!("cannot read OpenEXR image: {e}");
+    // the header first: the sizes it declares are checked before the decoder allocates
+    let meta =
+        exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false).map_err(err)?;
+    for h in meta.headers.iter() {
+        check_image_size(h.layer_size.width(), h.layer_size.height())?;
+    }
+    let img = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(err)?;
     let layer = &img.layer_data;
     let (width, height) = (layer.size.x(), layer.size.y());
     let find = |name: &str| {
@@ -103,19 +140,16 @@ fn read_exr(path: &Path) -> Result<Image> {
                 .iter()
                 .map(|c| c.name.to_string())
                 .collect();
-            return Err(SceneError::file(
-                path,
-                format!(
-                    "OpenEXR image has neither R, G, B nor Y channels (found: {})",
-                    names.join(", ")
-                ),
+            return Err(format!(
+                "OpenEXR image has neither R, G, B nor Y channels (found: {})",
+                names.join(", ")
             ));
         }
     };
     let channels = planes.len();
     let n = width * height;
     if planes.iter().any(|p| p.len() != n) {
-        return Err(SceneError::file(path, "OpenEXR channel sizes disagree"));
+        return Err("OpenEXR channel sizes disagree".into());
     }
     let mut data = vec![0.0f32; n * channels];
     for (c, plane) in planes.iter().enumerate() {
@@ -131,15 +165,21 @@ fn read_exr(path: &Path) -> Result<Image> {
     })
 }
 
-fn read_with_image_crate(path: &Path) -> Result<(Image, bool)> {
+fn read_with_image_crate(bytes: &[u8]) -> std::result::Result<(Image, bool), String> {
     use image::DynamicImage as D;
-    let err = |e: &dyn std::fmt::Display| SceneError::file(path, format!("cannot read image: {e}"));
-    let dynimg = image::ImageReader::open(path)
-        .map_err(|e| err(&e))?
+    use image::ImageDecoder;
+    let err = |e: &dyn std::fmt::Display| format!("cannot read image: {e}");
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
-        .map_err(|e| err(&e))?
-        .decode()
         .map_err(|e| err(&e))?;
+    let mut limits = image::Limits::default();
+    // RGBA f32 at the largest size, plus the decoders' working memory
+    limits.max_alloc = Some(MAX_IMAGE_PIXELS as u64 * 16 + (64 << 20));
+    reader.limits(limits);
+    let decoder = reader.into_decoder().map_err(|e| err(&e))?;
+    let (w, h) = decoder.dimensions();
+    check_image_size(w as usize, h as usize)?;
+    let dynimg = D::from_decoder(decoder).map_err(|e| err(&e))?;
     let (width, height) = (dynimg.width() as usize, dynimg.height() as usize);
     let s8 = |v: u8| v as f32 / 255.0;
     let s16 = |v: u16| v as f32 / 65535.0;

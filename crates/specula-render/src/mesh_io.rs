@@ -146,15 +146,84 @@ fn read_file(path: &Path) -> Result<Vec<u8>> {
 /// triangulated as fans, v texture coordinate flipped (`1 - v`) as Mitsuba does.
 pub fn load_obj(path: &Path) -> Result<MeshData> {
     let bytes = read_file(path)?;
-    let text = String::from_utf8_lossy(&bytes);
+    parse_obj(&bytes).map_err(|m| SceneError::file(path, m))
+}
+
+/// Checks every vertex reference of a face, line or point statement (`f 1/2/3 -1//-2 …`):
+/// positive indices at most the number of such elements in the file, negative ones at most
+/// the number defined so far, never 0. `tobj` does unchecked index arithmetic that overflows
+/// on such references (a panic in builds with debug assertions), so they are rejected here.
+fn check_obj_refs(
+    line_no: usize,
+    words: std::str::SplitWhitespace<'_>,
+    so_far: [usize; 3],
+    total: [usize; 3],
+) -> std::result::Result<(), String> {
+    const KIND: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    for corner in words {
+        for (k, part) in corner.split('/').enumerate() {
+            if part.is_empty() {
+                continue;
+            }
+            if k > 2 {
+                return Err(format!("line {line_no}: malformed face corner '{corner}'"));
+            }
+            let x: i64 = part
+                .parse()
+                .map_err(|_| format!("line {line_no}: malformed face corner '{corner}'"))?;
+            let ok = if x < 0 {
+                x.unsigned_abs() <= so_far[k] as u64
+            } else {
+                x >= 1 && x as u64 <= total[k] as u64
+            };
+            if !ok {
+                return Err(format!(
+                    "line {line_no}: face refers to {} {x}, but {}",
+                    KIND[k],
+                    if x < 0 {
+                        format!("only {} come before this line", so_far[k])
+                    } else {
+                        format!("the file has {} (numbered from 1)", total[k])
+                    }
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// [`load_obj`] on the bytes of a file; the error says what is wrong (the caller names the
+/// file).
+pub fn parse_obj(bytes: &[u8]) -> std::result::Result<MeshData, String> {
+    let text = String::from_utf8_lossy(bytes);
+    let kind = |first: &str| match first {
+        "v" => Some(0),
+        "vt" => Some(1),
+        "vn" => Some(2),
+        _ => None,
+    };
+    let mut total = [0usize; 3];
+    for line in text.lines() {
+        if let Some(k) = kind(line.split_whitespace().next().unwrap_or("")) {
+            total[k] += 1;
+        }
+    }
+    let mut so_far = [0usize; 3];
     // tobj starts a new model (with its own vertex numbering) at every `o`, `g` and material
     // change, which would split vertices shared between groups. Mitsuba builds one mesh over
     // the whole file, so drop those statements (and material libraries, which we never use).
     let mut filtered = String::with_capacity(text.len());
-    for line in text.lines() {
-        let first = line.split_whitespace().next().unwrap_or("");
+    for (n, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let first = words.next().unwrap_or("");
         if matches!(first, "o" | "g" | "usemtl" | "mtllib") {
             continue;
+        }
+        if let Some(k) = kind(first) {
+            so_far[k] += 1;
+        }
+        if matches!(first, "f" | "l" | "p") {
+            check_obj_refs(n + 1, words, so_far, total)?;
         }
         filtered.push_str(line);
         filtered.push('\n');
@@ -169,7 +238,7 @@ pub fn load_obj(path: &Path) -> Result<MeshData> {
     let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| {
         Err(tobj::LoadError::OpenFileFailed)
     })
-    .map_err(|e| SceneError::file(path, format!("invalid OBJ file: {e}")))?;
+    .map_err(|e| format!("invalid OBJ file: {e}"))?;
 
     let mut data = MeshData::default();
     let mut normals: Vec<Vec3> = Vec::new();
@@ -215,10 +284,9 @@ pub fn load_obj(path: &Path) -> Result<MeshData> {
     if all_uvs && !data.positions.is_empty() {
         data.uvs = Some(uvs);
     }
-    data.validate("invalid OBJ file")
-        .map_err(|m| SceneError::file(path, m))?;
+    data.validate("invalid OBJ file")?;
     if data.indices.is_empty() {
-        return Err(SceneError::file(path, "OBJ file contains no faces"));
+        return Err("OBJ file contains no faces".into());
     }
     Ok(data)
 }
@@ -415,11 +483,39 @@ fn parse_header(bytes: &[u8]) -> std::result::Result<Header, String> {
         }
     }
     let format = format.ok_or("bad PLY header: missing 'format' line")?;
+    // Every element needs some bytes of body: reject counts the file cannot hold before any
+    // storage is reserved (a 200-byte header may declare 2^32 faces).
+    let available = bytes.len().saturating_sub(pos);
+    let mut needed = 0usize;
+    for el in &elements {
+        let per = min_element_bytes(el, format);
+        needed = needed.saturating_add(el.count.saturating_mul(per));
+        if needed > available.saturating_add(1) {
+            return Err(format!(
+                "bad PLY header: element '{}' declares {} entries of at least {per} bytes each, \
+                 but the file has only {available} bytes of data",
+                el.name, el.count
+            ));
+        }
+    }
     Ok(Header {
         format,
         elements,
         body: pos,
     })
+}
+
+/// The fewest bytes one entry of `el` takes in the body: the sizes of its scalars and list
+/// counts in binary files; two characters (a digit and a separator) per value in ascii ones.
+fn min_element_bytes(el: &Element, format: Format) -> usize {
+    el.props
+        .iter()
+        .map(|p| match (format, &p.kind) {
+            (Format::Ascii, _) => 2,
+            (_, PropKind::Scalar(t)) => t.size(),
+            (_, PropKind::List { count, .. }) => count.size(),
+        })
+        .sum()
 }
 
 /// A source of values for the PLY body, ascii or binary.
@@ -805,6 +901,7 @@ fn parse_body(header: &Header, body: &mut dyn Body) -> std::result::Result<MeshD
                 }
                 data.attributes.extend(attrs);
             }
+            _ if el.props.is_empty() => {}
             _ => {
                 for i in 0..el.count {
                     for prop in &el.props {
@@ -855,12 +952,17 @@ fn skip_list(body: &mut dyn Body, count: Scalar, item: Scalar) -> std::result::R
 /// fanned into triangles.
 pub fn load_ply(path: &Path) -> Result<MeshData> {
     let bytes = read_file(path)?;
-    let header = parse_header(&bytes).map_err(|m| SceneError::file(path, m))?;
+    parse_ply(&bytes).map_err(|m| SceneError::file(path, m))
+}
+
+/// [`load_ply`] on the bytes of a file; the error says what is wrong (the caller names the
+/// file).
+pub fn parse_ply(bytes: &[u8]) -> std::result::Result<MeshData, String> {
+    let header = parse_header(bytes)?;
     let body = &bytes[header.body.min(bytes.len())..];
     let result = match header.format {
         Format::Ascii => {
-            let text = std::str::from_utf8(body)
-                .map_err(|_| SceneError::file(path, "ascii PLY body is not valid text"))?;
+            let text = std::str::from_utf8(body).map_err(|_| "ascii PLY body is not valid text")?;
             let mut b = AsciiBody {
                 tokens: text.split_ascii_whitespace(),
             };
@@ -875,11 +977,10 @@ pub fn load_ply(path: &Path) -> Result<MeshData> {
             parse_body(&header, &mut b)
         }
     };
-    let data = result.map_err(|m| SceneError::file(path, format!("invalid PLY file: {m}")))?;
-    data.validate("invalid PLY file")
-        .map_err(|m| SceneError::file(path, m))?;
+    let data = result.map_err(|m| format!("invalid PLY file: {m}"))?;
+    data.validate("invalid PLY file")?;
     if data.indices.is_empty() {
-        return Err(SceneError::file(path, "PLY file contains no faces"));
+        return Err("PLY file contains no faces".into());
     }
     Ok(data)
 }
@@ -1215,5 +1316,94 @@ vt 0 1\nusemtl red\nf 1/1 2/2 3/3 4/4\ng b\nf 2/2 3/3 1/1\n",
         assert_eq!(ico.positions.len(), 10242);
         assert_eq!(ico.indices.len(), 20480);
         assert!(ico.normals.is_some() && ico.uvs.is_none());
+    }
+
+    /// Reproducers of `../shared/robustness/ply`: header counts the file cannot hold are
+    /// rejected before any storage is reserved (these aborted on 25 and 51 GB allocations).
+    #[test]
+    fn ply_counts_beyond_the_file_length_are_rejected() {
+        let bin = b"ply\nformat binary_little_endian 1.0\nelement vertex 2147483648\n\
+            property float x\nproperty float y\nproperty float z\nelement face 1\n\
+            property list uchar int vertex_indices\nend_header\n\0\0\0\0\0\0\0\0\0\0\0\0";
+        let e = parse_ply(bin).unwrap_err();
+        assert!(
+            e.contains("'vertex' declares 2147483648 entries of at least 12 bytes")
+                && e.contains("12 bytes of data"),
+            "{e}"
+        );
+        let ascii = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n\
+            property float y\nproperty float z\nelement face 4294967295\n\
+            property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+        let e = parse_ply(ascii).unwrap_err();
+        assert!(e.contains("'face' declares 4294967295 entries"), "{e}");
+        // an element without properties takes no bytes: skipped, whatever its count
+        let empty = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n\
+            property float y\nproperty float z\nelement nothing 18446744073709551615\n\
+            element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+            0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+        assert_eq!(parse_ply(empty).unwrap().indices, vec![[0, 1, 2]]);
+        for name in ["huge_vertices.ply", "huge_faces.ply"] {
+            let Some(p) = specula_testdata::shared(&format!("robustness/ply/{name}")) else {
+                continue;
+            };
+            let e = load_ply(&p).unwrap_err().to_string();
+            assert!(e.contains(name) && e.contains("bytes of data"), "{e}");
+        }
+    }
+
+    /// `f 1//-31` (reproducer `robustness/obj/tobj_index_mul_overflow_debug_only.obj`)
+    /// overflowed inside tobj in debug builds: out-of-range references are rejected first,
+    /// with the line.
+    #[test]
+    fn obj_out_of_range_references_are_rejected_with_the_line() {
+        let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//-31 2//1 3//1\n";
+        let e = parse_obj(obj).unwrap_err();
+        assert_eq!(
+            e,
+            "line 5: face refers to normal -31, but only 1 come before this line"
+        );
+        let cases: [(&[u8], &str); 4] = [
+            (b"v 0 0 0\nf 0 1 1\n", "vertex 0"),
+            (b"v 0 0 0\nf 1 1 9223372036854775807\n", "the file has 1"),
+            (
+                b"v 0 0 0\nvt 0 0\nf 1/-2 1/1 1/1\n",
+                "texture coordinate -2",
+            ),
+            (b"v 0 0 0\nf 1///1 1 1\n", "malformed face corner"),
+        ];
+        for (obj, what) in cases {
+            let e = parse_obj(obj).unwrap_err();
+            assert!(e.starts_with("line ") && e.contains(what), "{e}");
+        }
+        // relative and forward references within range still load
+        let ok = b"v 0 0 0\nv 1 0 0\nf -2 -1 3\nv 0 1 0\n";
+        assert_eq!(parse_obj(ok).unwrap().indices.len(), 1);
+        if let Some(p) =
+            specula_testdata::shared("robustness/obj/tobj_index_mul_overflow_debug_only.obj")
+        {
+            let e = load_obj(&p).unwrap_err().to_string();
+            assert!(e.contains("line 5: face refers to normal -31"), "{e}");
+        }
+    }
+
+    /// One polygon of 90 000 corners (`robustness/obj/big_polygon_bvh_hang.obj`) loads as a
+    /// fan in well under a second (the BVH over it is tested in `accel`).
+    #[test]
+    fn obj_huge_polygon_loads_as_a_fan() {
+        let n = 90_000;
+        let mut obj = String::new();
+        for i in 0..n {
+            let a = i as f32 / n as f32 * std::f32::consts::TAU;
+            obj += &format!("v {} {} 0\n", a.cos(), a.sin());
+        }
+        obj += "f";
+        for i in 1..=n {
+            obj += &format!(" {i}");
+        }
+        obj += "\n";
+        let t = std::time::Instant::now();
+        let m = parse_obj(obj.as_bytes()).unwrap();
+        assert_eq!(m.indices.len(), n - 2);
+        assert!(t.elapsed().as_secs_f64() < 5.0, "{:?}", t.elapsed());
     }
 }

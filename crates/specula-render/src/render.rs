@@ -48,6 +48,9 @@ pub struct RenderOutput {
     pub spp: u32,
     /// Extra channels of an AOV integrator: (name, one value per pixel, row-major).
     pub aovs: Vec<(String, Vec<f32>)>,
+    /// Pixels whose sums overflowed `f32` (radiance near 3.4e38): black in `rgb`, never ±∞;
+    /// a caller should report them (the CLI refuses to write such an image).
+    pub overflowed: usize,
 }
 
 /// The image block of a tile and the blocks of its AOV channels (three per block).
@@ -216,14 +219,16 @@ fn render_with<S: PixelSampler>(
             (name, plane.iter().skip(ch).step_by(3).copied().collect())
         })
         .collect();
+    let (rgb, overflowed) = film.develop_counting();
     RenderOutput {
         width: fw,
         height: fh,
-        rgb: film.develop(),
+        rgb,
         counters,
         elapsed: start.elapsed(),
         complete,
         spp,
         aovs,
+        overflowed,
     }
 }

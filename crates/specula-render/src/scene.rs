@@ -605,12 +605,7 @@ impl Builder {
         }
         let w = n.int("width", 768)?;
         let h = n.int("height", 576)?;
-        if w <= 0 || h <= 0 || w > 1 << 16 || h > 1 << 16 {
-            return Err(SceneError::new(
-                Some(n.loc.clone()),
-                format!("invalid film size {w}×{h}"),
-            ));
-        }
+        crate::film::check_film_size(w, h).map_err(|m| SceneError::new(Some(n.loc.clone()), m))?;
         for p in [
             "file_format",
             "pixel_format",
@@ -649,7 +644,10 @@ impl Builder {
         let f = match n.plugin_type.as_str() {
             "box" => RFilter::Box,
             "tent" => RFilter::Tent,
-            "gaussian" => RFilter::gaussian(n.float("stddev", 0.5)?),
+            "gaussian" => RFilter::gaussian_checked(n.float("stddev", 0.5)?).map_err(|m| {
+                let loc = n.prop("stddev").map_or(&n.loc, |p| &p.loc);
+                SceneError::new(Some(loc.clone()), m)
+            })?,
             other => {
                 return Err(SceneError::new(
                     Some(n.loc.clone()),
@@ -929,7 +927,7 @@ impl Builder {
             )));
         }
         let radiance = match textures.as_slice() {
-            [] => AreaRadiance::Rgb(Rgb(c.emission_rgb("radiance", [1.0; 3])?)),
+            [] => AreaRadiance::Rgb(crate::emitters::light_rgb(c, "radiance")?),
             [t] if t.name == "radiance" && !c.has("radiance") => {
                 AreaRadiance::Texture(t.texture.clone())
             }

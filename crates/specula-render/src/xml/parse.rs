@@ -12,6 +12,10 @@ use std::path::{Path, PathBuf};
 
 /// Mitsuba 3's limit on nested `<include>`s.
 const MAX_INCLUDE_DEPTH: usize = 15;
+/// The deepest nesting of plugin elements (`<bsdf>` in `<bsdf>` in `<shape>` …, counted across
+/// includes) a scene may have. Real scenes stay below 10; the limit keeps every recursive
+/// pass over the scene tree (parsing, building, dropping it) far from the end of the stack.
+pub const MAX_NESTING_DEPTH: usize = 64;
 
 /// Elements that become plugin nodes.
 const PLUGIN_TAGS: &[&str] = &[
@@ -374,6 +378,8 @@ struct Parser {
     search_paths: Vec<PathBuf>,
     /// `<alias id="a" as="b"/>`: b → a.
     aliases: Vec<(String, String, Loc)>,
+    /// Plugin elements open around the one being parsed (see [`MAX_NESTING_DEPTH`]).
+    depth: usize,
 }
 
 /// The file being parsed.
@@ -540,6 +546,7 @@ impl Parser {
             main_dir: main_dir.to_path_buf(),
             search_paths: Vec::new(),
             aliases: Vec::new(),
+            depth: 0,
         })
     }
 
@@ -843,7 +850,15 @@ impl Parser {
             children: Vec::new(),
             loc: e.loc.clone(),
         };
-        self.children(ctx, xml, &mut node)?;
+        if self.depth >= MAX_NESTING_DEPTH {
+            return Err(e.err(format!(
+                "plugins nested more than {MAX_NESTING_DEPTH} deep (the limit)"
+            )));
+        }
+        self.depth += 1;
+        let r = self.children(ctx, xml, &mut node);
+        self.depth -= 1;
+        r?;
         if ctx.upgrade {
             upgrade_node(&mut node)?;
         }

@@ -2322,6 +2322,7 @@ mod tests {
                 normals: None,
                 uvs: None,
                 indices,
+                attributes: vec![],
             };
             Geometry::mesh(data, m, false, false).unwrap()
         };

@@ -3137,6 +3137,7 @@ end_header
             normals: None,
             uvs: None,
             indices,
+            attributes: vec![],
         };
         let mesh = Geometry::mesh(data, Mat4::IDENTITY, false, false).unwrap();
         let group = Arc::new(ShapeGroup::new(vec![mesh], vec![0]));

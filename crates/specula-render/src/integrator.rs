@@ -240,6 +240,7 @@ impl Scene {
     ) -> Rgb {
         match integrator {
             Integrator::Path(p) => self.li_path(p, ray, hit, rng, counters),
+            Integrator::Volpath(p) => self.li_volpath(p, ray, hit, rng, counters),
             Integrator::Direct(d) => self.li_direct(d, ray, hit, rng, counters),
             Integrator::Depth => {
                 counters.rays += 1;
@@ -398,6 +399,8 @@ impl Scene {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Integrator {
     Path(PathSettings),
+    /// Mitsuba's `volpath` (participating media; see [`crate::volpath`]).
+    Volpath(PathSettings),
     Direct(DirectSettings),
     Depth,
     Aov(AovSettings),
@@ -918,7 +921,7 @@ mod tests {
                 r#"<integrator type="depth"><integrator type="path"/></integrator>"#,
                 "cannot be nested",
             ),
-            (r#"<integrator type="volpath"/>"#, "not supported"),
+            (r#"<integrator type="volpathmis"/>"#, "not supported"),
         ] {
             let e = scene(bad, "").err().unwrap().to_string();
             assert!(e.contains(msg) && e.contains("<test>:2:"), "{e}");

@@ -100,17 +100,14 @@ fn render_tile<S: PixelSampler>(
                 scene.accel.intersect_packet(&rays[..n], &mut hits[..n]);
                 for i in 0..n {
                     sampler.start_sample(done + i as u32, 1);
-                    let l = match &scene.volpath {
-                        Some(v) => scene.li_volpath(v, rays[i], hits[i].take(), sampler, &mut c),
-                        None => scene.sample(
-                            integrator,
-                            rays[i],
-                            hits[i].take(),
-                            sampler,
-                            &mut c,
-                            &mut aov,
-                        ),
-                    };
+                    let l = scene.sample(
+                        integrator,
+                        rays[i],
+                        hits[i].take(),
+                        sampler,
+                        &mut c,
+                        &mut aov,
+                    );
                     c.samples += 1;
                     if l.is_finite() {
                         block.put(pos[i], l);

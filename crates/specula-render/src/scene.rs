@@ -102,9 +102,11 @@ impl AreaRadiance {
 /// Changes applied to a scene file as it loads.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LoadOptions {
-    /// Render at this film size (width, height) with the same field of view: exactly as if
-    /// every film's `width` and `height` were edited in the file and its crop window reset to
-    /// the full film (a sensor without a film gets an `hdrfilm` of this size).
+    /// Render at this film size (width, height) with the same horizontal field of view, as
+    /// Mitsuba does when a film is resized through `mi.traverse`: as if every film's `width`
+    /// and `height` were edited in the file, its crop window reset to the full film, and the
+    /// camera's field of view given as the horizontal one it had on the original film (a
+    /// sensor without a film gets an `hdrfilm` of this size).
     pub size: Option<(usize, usize)>,
 }
 
@@ -147,6 +149,7 @@ impl LoadOptions {
         }
         let mut ids = vec![];
         film_ids(root, &mut ids);
+        keep_horizontal_fov(root)?;
         fn walk(n: &mut Node, w: usize, h: usize, ids: &[String]) {
             if n.tag == "film" {
                 film_props(n, w, h);
@@ -177,6 +180,54 @@ impl LoadOptions {
     }
 }
 
+/// Mitsuba keeps a perspective camera's horizontal field of view when its film is resized
+/// (`mi.traverse`: the sensor's x fov was computed from the file's film and stays), which is
+/// how the docs-scene references at reduced size were made. So before `--size` changes the
+/// film, each `perspective`/`thinlens` sensor's `fov`/`fov_axis`/`focal_length` is replaced
+/// by the horizontal fov they give on the film as written (with `fov_axis="x"`, this is the
+/// same camera at the original size). With `fov_axis` `x` nothing changes; with the other
+/// axes, the same field of view on a film of a slightly different aspect.
+fn keep_horizontal_fov(root: &mut Node) -> Result<()> {
+    let mut stack: Vec<&mut Node> = vec![root];
+    while let Some(n) = stack.pop() {
+        if n.tag == "sensor" && matches!(n.plugin_type.as_str(), "perspective" | "thinlens") {
+            let film = n.children.iter().find(|c| c.tag == "film");
+            let dim = |name: &str, default: i64| -> i64 {
+                film.and_then(|f| f.props.iter().find(|p| p.name == name))
+                    .and_then(|p| match p.value {
+                        PropValue::Int(v) => Some(v),
+                        _ => None,
+                    })
+                    .unwrap_or(default)
+            };
+            let (w, h) = (dim("width", 768), dim("height", 576));
+            if w > 0 && h > 0 {
+                let t = crate::camera::parse_fov(n, w as f64 / h as f64)? as f64;
+                let fov_x = 2.0 * t.atan().to_degrees();
+                let loc = n
+                    .props
+                    .iter()
+                    .find(|p| matches!(p.name.as_str(), "fov" | "focal_length"))
+                    .map_or(n.loc.clone(), |p| p.loc.clone());
+                n.props
+                    .retain(|p| !matches!(p.name.as_str(), "fov" | "fov_axis" | "focal_length"));
+                n.props.push(crate::xml::Prop::new(
+                    "fov",
+                    PropValue::Float(fov_x),
+                    loc.clone(),
+                ));
+                n.props.push(crate::xml::Prop::new(
+                    "fov_axis",
+                    PropValue::Str("x".into()),
+                    loc,
+                ));
+            }
+        }
+        stack.extend(n.children.iter_mut());
+    }
+    Ok(())
+}
+
 pub struct Scene {
     pub geometry: Vec<Geometry>,
     /// BSDF of each shape.
@@ -202,9 +253,8 @@ pub struct Scene {
     pub shape_media: Vec<crate::media::ShapeMedia>,
     /// The medium the camera sits in.
     pub camera_medium: Option<u32>,
-    /// Settings of Mitsuba's `volpath` when it is the scene's integrator (it then replaces
-    /// [`Scene::integrator`]).
-    pub volpath: Option<PathSettings>,
+    /// The integrator is Mitsuba's `volpath` (with [`Scene::integrator`]'s settings).
+    pub volpath: bool,
 }
 
 impl Scene {
@@ -467,7 +517,8 @@ impl Builder {
             }
             match child.tag.as_str() {
                 "integrator" if child.plugin_type == "volpath" => {
-                    parts.media.volpath = Some(crate::volpath::settings_from_node(child)?);
+                    parts.media.volpath = true;
+                    integrator = Integrator::Volpath(crate::volpath::settings_from_node(child)?);
                 }
                 "integrator" => integrator = self.integrator(child)?,
                 "sensor" => {
@@ -523,7 +574,6 @@ impl Builder {
             .map(|(i, _)| i as u32)
             .collect();
         parts.media.check_integrator(root)?;
-        let shape_media = parts.media.per_shape(parts.geometry.len());
         let accel = Bvh::build(&parts.geometry);
         Ok(Scene {
             geometry: parts.geometry,
@@ -540,7 +590,7 @@ impl Builder {
             sampler,
             integrator,
             media: parts.media.media,
-            shape_media,
+            shape_media: parts.media.shape_media,
             camera_medium: parts.media.camera_medium,
             volpath: parts.media.volpath,
         })
@@ -717,6 +767,9 @@ impl Builder {
 
     /// Convert an XML BSDF node into the material library's parameters and build it.
     fn bsdf(&self, n: &Node) -> Result<Bsdf> {
+        if n.plugin_type == "null" {
+            return crate::media::null_bsdf(n);
+        }
         let mut props = Props::new(n.plugin_type.clone(), loc_str(&n.loc));
         for p in &n.props {
             let v = match &p.value {
@@ -1082,7 +1135,7 @@ let mut data = match n.plugin_type.as_str() {
         parts.shape_bsdf.push(bsdf);
         parts.shape_light.push(light);
         let sm = parts.media.attached(n, true)?.0;
-        parts.media.attach_to_shape(parts.geometry.len() - 1, sm);
+        parts.media.shape_media.push(sm);
         Ok(())
     }
 }
@@ -1166,10 +1219,17 @@ impl Builder {
         let geometry: Vec<Geometry> = parts.geometry.drain(start..).collect();
         let bsdfs: Vec<u32> = parts.shape_bsdf.drain(start..).collect();
         let lights: Vec<Option<u32>> = parts.shape_light.drain(start..).collect();
+        let media: Vec<crate::media::ShapeMedia> = parts.media.shape_media.drain(start..).collect();
         // (bsdf, layout) → meshes, in order of first appearance
         let mut groups: Vec<((u32, (bool, bool, bool)), Vec<Geometry>)> = Vec::new();
-        for ((g, bsdf), light) in geometry.into_iter().zip(bsdfs).zip(lights) {
-            match (light, g.merge_key()) {
+        for (((g, bsdf), light), sm) in geometry.into_iter().zip(bsdfs).zip(lights).zip(media) {
+            // shapes that bound a medium keep their own identity
+            let key = if sm.is_transition() || sm != Default::default() {
+                None
+            } else {
+                g.merge_key()
+            };
+            match (light, key) {
                 (None, Some(k)) => match groups.iter_mut().find(|(key, _)| *key == (bsdf, k)) {
                     Some((_, list)) => list.push(g),
                     None => groups.push(((bsdf, k), vec![g])),
@@ -1183,6 +1243,7 @@ impl Builder {
                     parts.geometry.push(g);
                     parts.shape_bsdf.push(bsdf);
                     parts.shape_light.push(light);
+                    parts.media.shape_media.push(sm);
                 }
             }
         }
@@ -1192,6 +1253,7 @@ impl Builder {
             parts.geometry.push(merged);
             parts.shape_bsdf.push(bsdf);
             parts.shape_light.push(None);
+            parts.media.shape_media.push(Default::default());
         }
         Ok(())
     }
@@ -1226,6 +1288,7 @@ impl Builder {
             parts.geometry.push(g);
             parts.shape_bsdf.push(bsdf);
             parts.shape_light.push(None);
+            parts.media.shape_media.push(Default::default());
         }
         Ok(())
     }

@@ -31,12 +31,12 @@
 use crate::accel::{offset_ray_origin, SHADOW_EPSILON};
 use crate::core::{Hit, Ray, Result, SceneError};
 use crate::integrator::Counters;
-use crate::media::FreeFlight;
+use crate::media::{is_null_bsdf, FreeFlight};
 use crate::sampler::Sampler;
 use crate::scene::{Light, PathSettings, Scene};
 use crate::xml::Node;
 use glam::Vec3;
-use specula_bsdf::{Bsdf, BsdfContext, BsdfModel, LobeFlags, Rgb};
+use specula_bsdf::{Bsdf, BsdfContext, BsdfModel, LobeFlags, Rgb, ShadingPoint};
 
 /// Reads a `<integrator type="volpath">` node.
 pub fn settings_from_node(n: &Node) -> Result<PathSettings> {
@@ -75,22 +75,22 @@ fn mis(a: f32, b: f32) -> f32 {
 }
 
 /// What a shadow ray travelling along `d` keeps when it crosses a surface with `bsdf` (Mitsuba's
-/// `eval_null_transmission`): everything through `null`, 1 − opacity through `mask`, the slab
-/// transmittance (1 − R)·`specular_transmittance` through `thindielectric`; `None` (blocked)
-/// otherwise.
+/// `eval_null_transmission`): everything through `null`, the slab transmittance
+/// (1 − R)·`specular_transmittance` through `thindielectric`; `None` (blocked) otherwise.
 #[inline]
-fn null_transmission(
-    bsdf: &Bsdf,
-    si: &crate::core::SurfaceGeometry,
-    sp: &specula_bsdf::ShadingPoint,
-    d: Vec3,
-) -> Option<Rgb> {
+fn null_transmission(bsdf: &Bsdf, si: &crate::core::SurfaceGeometry, d: Vec3) -> Option<Rgb> {
+    if is_null_bsdf(bsdf) {
+        return Some(Rgb::ONE);
+    }
     match bsdf {
-        Bsdf::Null(_) => Some(Rgb::ONE),
-        Bsdf::Mask(m) => Some(Rgb::splat(1.0 - m.opacity.eval(sp).clamp(0.0, 1.0))),
         Bsdf::ThinDielectric(t) => {
+            let sp = ShadingPoint {
+                uv: si.uv,
+                p: si.p,
+                ..Default::default()
+            };
             let r = t.reflectance(si.sh_frame.n.dot(d));
-            Some(t.specular_transmittance.eval(sp) * (1.0 - r))
+            Some(t.specular_transmittance.eval(&sp) * (1.0 - r))
         }
         _ => None,
     }
@@ -204,8 +204,7 @@ impl Scene {
             }
             let si = self.geometry[shape].surface(&ray, &h);
             let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-            let sp = si.shading_point(&h, self.geometry[shape].surface_data());
-            match null_transmission(bsdf, &si, &sp, d) {
+            match null_transmission(bsdf, &si, d) {
                 Some(t) => tr *= t,
                 None => return Rgb::ZERO,
             }
@@ -392,6 +391,18 @@ impl Scene {
             }
             let sm = self.shape_media[shape];
             let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
+            if is_null_bsdf(bsdf) {
+                // an index-matched boundary: go straight on, possibly into another medium
+                if sm.is_transition() {
+                    medium = sm.target(si.n_geo, ray.d);
+                }
+                ray = Ray {
+                    o: offset_ray_origin(si.p, si.n_geo, ray.d),
+                    d: ray.d,
+                    t_max: f32::INFINITY,
+                };
+                continue;
+            }
             let sp = si.shading_point(&hit, self.geometry[shape].surface_data());
 
             // next-event estimation
@@ -433,8 +444,7 @@ impl Scene {
             let d = si.sh_frame.to_world(bs.wo).normalize();
             throughput *= bs.weight;
             eta *= bs.eta;
-            // a `Null` lobe (`null`, `mask`; Mitsuba's `thindielectric` transmits through one
-            // too) passes the path on without a bounce
+            // Mitsuba's `thindielectric` transmits through a `Null` lobe: not a bounce
             let null_event = bs.lobe == LobeFlags::NULL
                 || (matches!(bsdf, Bsdf::ThinDielectric(_))
                     && bs.lobe == LobeFlags::DELTA_TRANSMISSION);
@@ -539,7 +549,7 @@ mod tests {
         let want = [0.5, 0.7, 1.0];
         for (extra, origin) in [(r#"<ref id="m"/>"#, "0, 0.2, 0.1"), ("", "0, 0, -4")] {
             let s = scene(FURNACE, extra, origin, "volpath").unwrap();
-            assert!(s.volpath.is_some() && s.media.len() == 1);
+            assert!(s.volpath && s.media.len() == 1);
             let m = mean(&s, 2048);
             for c in 0..3 {
                 assert!(

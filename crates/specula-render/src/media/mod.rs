@@ -100,15 +100,10 @@ fn volume_param(n: &Node, name: &str, default: f32) -> Result<Rgb> {
         Some(PropValue::Float(_)) | Some(PropValue::Int(_)) => {
             Ok(Rgb::splat(n.float(name, default)?))
         }
-        // spectra: σt is unbounded, albedo (and a volume's value) a reflectance
-        Some(_) => {
-            let usage = if name == "sigma_t" {
-                crate::xml::Usage::Unbounded
-            } else {
-                crate::xml::Usage::Reflectance
-            };
-            Ok(Rgb(n.color_opt(name, usage)?.unwrap_or([default; 3])))
-        }
+        Some(PropValue::Spectrum(_)) => Ok(Rgb(n
+            .color_opt(name, crate::xml::Usage::Unbounded)?
+            .unwrap_or([default; 3]))),
+        Some(_) => Ok(Rgb(n.rgb(name, [default; 3])?)),
     }
 }
 
@@ -276,10 +271,9 @@ pub struct SceneMedia {
     pub media: Vec<Medium>,
     /// id → index of top-level media.
     ids: Vec<(String, u32)>,
-    /// (shape index, media) of the shapes that have media attached.
-    shape_media: Vec<(usize, ShapeMedia)>,
+    pub shape_media: Vec<ShapeMedia>,
     pub camera_medium: Option<u32>,
-    pub volpath: Option<crate::scene::PathSettings>,
+    pub volpath: bool,
     /// Where the first medium was declared (for the error of a non-`volpath` integrator).
     first: Option<crate::core::Loc>,
 }
@@ -292,25 +286,6 @@ impl SceneMedia {
             self.first = Some(n.loc.clone());
         }
         Ok(self.media.len() as u32 - 1)
-    }
-
-    /// Records the media of the shape with index `shape`.
-    pub fn attach_to_shape(&mut self, shape: usize, sm: ShapeMedia) {
-        if sm.is_transition() {
-            self.shape_media.push((shape, sm));
-        }
-    }
-
-    /// The media of each of the scene's `n` shapes. (Media on shapes nested in a `merge` or a
-    /// `shapegroup` are not supported: their indices change after `shape()` records them.)
-    pub fn per_shape(&self, n: usize) -> Vec<ShapeMedia> {
-        let mut v = vec![ShapeMedia::default(); n];
-        for &(i, sm) in &self.shape_media {
-            if i < n {
-                v[i] = sm;
-            }
-        }
-        v
     }
 
     /// A top-level `<medium id=…>`.
@@ -377,7 +352,7 @@ impl SceneMedia {
     /// refuses the scene instead.
     pub fn check_integrator(&self, root: &Node) -> Result<()> {
         match (&self.first, self.volpath) {
-            (Some(at), None) => Err(SceneError::new(
+            (Some(at), false) => Err(SceneError::new(
                 Some(root.loc.clone()),
                 format!("the scene has a participating medium (declared at {at}) but its integrator is not 'volpath'; the 'path' integrator cannot render media (Mitsuba 3's would ignore them): use <integrator type=\"volpath\">"),
             )),
@@ -386,10 +361,28 @@ impl SceneMedia {
     }
 }
 
-/// Whether a BSDF is Mitsuba's `null`: an index-matched, invisible boundary.
+/// Mitsuba's `null` BSDF as the scene builder makes it while the material library has none: a
+/// `dielectric` with η = 1 (passes every ray straight on with weight 1), which
+/// [`is_null_bsdf`] recognises. It takes no parameters.
+pub fn null_bsdf(n: &Node) -> Result<specula_bsdf::Bsdf> {
+    if let Some(c) = n.children.first() {
+        return Err(err(
+            c,
+            format!("<{}> cannot be nested in a null bsdf", c.tag),
+        ));
+    }
+    n.check_unused(&[])?;
+    Ok(specula_bsdf::Bsdf::Dielectric(
+        specula_bsdf::models::Dielectric::new(1.0),
+    ))
+}
+
+/// Whether a BSDF is an index-matched, invisible boundary (`null`): `volpath` passes through
+/// it without counting a bounce, and lets shadow rays through.
 #[inline]
 pub fn is_null_bsdf(b: &specula_bsdf::Bsdf) -> bool {
-    matches!(b, specula_bsdf::Bsdf::Null(_))
+    matches!(b, specula_bsdf::Bsdf::Dielectric(d) if d.eta == 1.0
+        && d.specular_transmittance.is_const() && d.specular_transmittance.mean() == specula_bsdf::Rgb::ONE)
 }
 
 #[cfg(test)]

@@ -444,7 +444,7 @@ impl Scene {
             let d = si.sh_frame.to_world(bs.wo).normalize();
             throughput *= bs.weight;
             eta *= bs.eta;
-            // Mitsuba's `thindielectric` transmits through a `Null` lobe: not a bounce
+            // a `Null` lobe (`null`, `mask`; Mitsuba's `thindielectric` transmission) is not a bounce
             let null_event = bs.lobe == LobeFlags::NULL
                 || (matches!(bsdf, Bsdf::ThinDielectric(_))
                     && bs.lobe == LobeFlags::DELTA_TRANSMISSION);

@@ -25,11 +25,6 @@ use std::sync::atomic::AtomicBool;
 /// Scenes that need what this renderer does not do yet, with the plugins whose names the load
 /// error must contain. This list shrinks as those features land.
 const EXCEPTIONS: &[(&str, &[&str], &str)] = &[
-    (
-        "medium_homogeneous_sss",
-        &["medium", "volpath", "homogeneous"],
-        "participating media (issue 11)",
-    ),
     ("shape_bsplinecurve_", &["bsplinecurve"], "curves"),
     ("shape_linearcurve_", &["linearcurve"], "curves"),
     ("bsdf_hair_", &["hair"], "hair"),

@@ -749,8 +749,7 @@ pub fn parse_ply(bytes: &[u8]) -> std::result::Result<MeshData, String> {
     let body = &bytes[header.body.min(bytes.len())..];
     let result = match header.format {
         Format::Ascii => {
-            let text =
-                std::str::from_utf8(body).map_err(|_| "ascii PLY body is not valid text")?;
+            let text = std::str::from_utf8(body).map_err(|_| "ascii PLY body is not valid text")?;
             let mut b = AsciiBody {
                 tokens: text.split_ascii_whitespace(),
             };
@@ -1100,7 +1099,10 @@ vt 0 1\nusemtl red\nf 1/1 2/2 3/3 4/4\ng b\nf 2/2 3/3 1/1\n",
         let cases: [(&[u8], &str); 4] = [
             (b"v 0 0 0\nf 0 1 1\n", "vertex 0"),
             (b"v 0 0 0\nf 1 1 9223372036854775807\n", "the file has 1"),
-            (b"v 0 0 0\nvt 0 0\nf 1/-2 1/1 1/1\n", "texture coordinate -2"),
+            (
+                b"v 0 0 0\nvt 0 0\nf 1/-2 1/1 1/1\n",
+                "texture coordinate -2",
+            ),
             (b"v 0 0 0\nf 1///1 1 1\n", "malformed face corner"),
         ];
         for (obj, what) in cases {

@@ -50,7 +50,11 @@ fn run(target: &str, f: Target, path: &Path) {
     });
     assert!(r.is_ok(), "{target} panicked on {}", path.display());
     let secs = t.elapsed().as_secs_f64();
-    assert!(secs < 20.0, "{target} took {secs:.1} s on {}", path.display());
+    assert!(
+        secs < 20.0,
+        "{target} took {secs:.1} s on {}",
+        path.display()
+    );
 }
 
 #[test]

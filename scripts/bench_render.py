@@ -3,6 +3,7 @@
 
     cargo build --release -p specula-cli
     python3 scripts/bench_render.py [--spp 256] [--scenes cbox,meshes,veach_mis] [--no-mitsuba]
+    python3 scripts/bench_render.py --scenes med_absorbing_glass,med_subsurface,med_fog_box
 
 Prints samples/s (pixels × spp / wall time of the render call only, scene loading excluded)
 for each scene. Specula's figure comes from `specula render`'s own summary line. Mitsuba is
@@ -57,6 +58,8 @@ def main():
     print(f"{'scene':<12} {'specula':>10} {'mi scalar':>10} {'mi llvm':>10}   (M samples/s, {a.spp} spp)")
     for name in a.scenes.split(","):
         scene = shared / f"{name}.xml"
+        if not scene.exists():  # the participating-media scenes (med_*) live apart
+            scene = shared.parent / "media" / "scenes" / f"{name}.xml"
         sp = specula(scene, a.spp, a.threads)
         ms = ml = None
         if not a.no_mitsuba:

@@ -53,11 +53,14 @@ impl LobeFlags {
     pub const GLOSSY_TRANSMISSION: LobeFlags = LobeFlags(8);
     pub const DELTA_REFLECTION: LobeFlags = LobeFlags(16);
     pub const DELTA_TRANSMISSION: LobeFlags = LobeFlags(32);
+    /// Mitsuba's `Null`: light passes through unchanged (wo = −wi, weight 1), as through the
+    /// transparent part of a `mask` or a `null` surface. A Dirac transmission lobe.
+    pub const NULL: LobeFlags = LobeFlags(64);
     pub const REFLECTION: LobeFlags = LobeFlags(1 | 4 | 16);
-    pub const TRANSMISSION: LobeFlags = LobeFlags(2 | 8 | 32);
+    pub const TRANSMISSION: LobeFlags = LobeFlags(2 | 8 | 32 | 64);
     pub const DIFFUSE: LobeFlags = LobeFlags(1 | 2);
     pub const GLOSSY: LobeFlags = LobeFlags(4 | 8);
-    pub const DELTA: LobeFlags = LobeFlags(16 | 32);
+    pub const DELTA: LobeFlags = LobeFlags(16 | 32 | 64);
     pub const SMOOTH: LobeFlags = LobeFlags(1 | 2 | 4 | 8);
 
     #[inline]
@@ -99,6 +102,7 @@ impl fmt::Display for LobeFlags {
             "glossy-transmission",
             "delta-reflection",
             "delta-transmission",
+            "null",
         ];
         let mut first = true;
         for (i, n) in names.iter().enumerate() {
@@ -132,20 +136,63 @@ pub struct BsdfSample {
     pub eta: f32,
 }
 
-/// Where on a surface a BSDF is evaluated: what textured parameters are looked up with.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ShadingPoint {
+/// Per-primitive data of the surface that was hit, for textures that read it (Mitsuba's
+/// `mesh_attribute`): implemented by the renderer's meshes.
+pub trait SurfaceData: Send + Sync + fmt::Debug {
+    /// The attribute `name` (`vertex_…` or `face_…`) of primitive `prim` at barycentric
+    /// coordinates `bary` = (b1, b2): vertex attributes interpolated, face attributes constant;
+    /// a 1-channel attribute is returned in all three channels. `None` when the surface has no
+    /// such attribute.
+    fn attribute(&self, name: &str, prim: u32, bary: Vec2) -> Option<Spectrum>;
+}
+
+/// Where on a surface a BSDF is evaluated: what textured parameters are looked up with, and
+/// the differential geometry that `bumpmap` needs.
+///
+/// `dp_du`, `dp_dv` and `n_geo` are expressed in the local shading frame (the frame the
+/// directions given to a BSDF are in, shading normal +z). [`ShadingPoint::default`] is a flat
+/// surface with the unit parameterisation of that frame (`dp_du` = x, `dp_dv` = y,
+/// `n_geo` = z) and uv (0, 0): what `specula brdf check` evaluates materials at.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadingPoint<'a> {
     /// Surface texture coordinates.
     pub uv: Vec2,
     /// World-space position (for procedural 3-D textures).
     pub p: Vec3,
+    /// ∂p/∂u in the local shading frame (not normalised, not projected).
+    pub dp_du: Vec3,
+    /// ∂p/∂v in the local shading frame.
+    pub dp_dv: Vec3,
+    /// The unit geometric normal in the local shading frame (on the shape's front side).
+    pub n_geo: Vec3,
+    /// Index of the primitive (triangle) hit, and its barycentric coordinates (b1, b2).
+    pub prim: u32,
+    pub bary: Vec2,
+    /// The shape's per-primitive data, when it has any.
+    pub surface: Option<&'a dyn SurfaceData>,
 }
 
-impl ShadingPoint {
+impl Default for ShadingPoint<'_> {
+    fn default() -> Self {
+        ShadingPoint {
+            uv: Vec2::ZERO,
+            p: Vec3::ZERO,
+            dp_du: Vec3::X,
+            dp_dv: Vec3::Y,
+            n_geo: Vec3::Z,
+            prim: 0,
+            bary: Vec2::ZERO,
+            surface: None,
+        }
+    }
+}
+
+impl ShadingPoint<'_> {
+    /// The flat default point at texture coordinates (u, v).
     pub fn at_uv(u: f32, v: f32) -> Self {
         ShadingPoint {
             uv: Vec2::new(u, v),
-            p: Vec3::ZERO,
+            ..Default::default()
         }
     }
 }
@@ -160,6 +207,26 @@ pub trait Texture: Send + Sync + fmt::Debug {
     }
     /// Average over the texture (used to balance lobe sampling probabilities).
     fn mean(&self) -> Spectrum;
+    /// Resolution (width, height) of an image texture; (1, 1) for others (Mitsuba's
+    /// `Texture::resolution`, which sets e.g. a `projector`'s aspect ratio).
+    fn resolution(&self) -> (usize, usize) {
+        (1, 1)
+    }
+    /// Gradient (∂/∂u, ∂/∂v) of [`Texture::eval_1`] in texture coordinates (Mitsuba's
+    /// `eval_1_grad`, what `bumpmap` perturbs the normal with); `None` for textures that do not
+    /// provide one (as in Mitsuba, only `bitmap` does).
+    fn eval_1_grad(&self, _sp: &ShadingPoint) -> Option<Vec2> {
+        None
+    }
+    /// Number of channels of the data (1 for a monochromatic bitmap, 3 otherwise).
+    fn channels(&self) -> usize {
+        3
+    }
+    /// The mesh attribute the texture reads (Mitsuba's `mesh_attribute`), so that a scene
+    /// loader can check the shapes it is used on.
+    fn mesh_attribute(&self) -> Option<&str> {
+        None
+    }
 }
 
 /// A colour parameter: a constant or a texture, looked up per shading point.

@@ -1,8 +1,11 @@
 //! From plugin name and parameters to a model, with Mitsuba 3's parameter names and defaults.
 
-use crate::bsdf::{BsdfModel, FloatParam, SpectrumParam};
+use crate::bsdf::{BsdfModel, FloatParam, ShadingPoint, SpectrumParam};
 use crate::fresnel::FresnelMode;
 use crate::microfacet::MicrofacetType;
+use crate::models::bumpmap::Bump;
+use crate::models::normalmap::NormalTexture;
+use crate::models::perturbed::Perturbed;
 use crate::models::*;
 use crate::props::{BuildError, Props};
 use crate::spectrum::Spectrum;
@@ -97,6 +100,20 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
     ("blendbsdf", &["weight"]),
     ("measured", &["filename"]),
     ("merl", &["filename", "interpolate", "sampling"]),
+    (
+        "bumpmap",
+        &["scale", "flip_invalid_normals", "use_shadowing_function"],
+    ),
+    (
+        "normalmap",
+        &[
+            "normalmap",
+            "flip_invalid_normals",
+            "use_shadowing_function",
+        ],
+    ),
+    ("mask", &["opacity"]),
+    ("null", &[]),
 ];
 
 /// Parameters a plugin accepts, or `None` for an unknown plugin.
@@ -221,6 +238,31 @@ fn eta(p: &Props, default_int: &str) -> Result<f32, BuildError> {
     Ok(int / ext)
 }
 
+/// The single nested BSDF of a wrapper (`bumpmap`, `normalmap`, `mask`).
+fn one_nested(p: &Props) -> Result<Bsdf, BuildError> {
+    match p.children.as_slice() {
+        [(b, _)] => Ok(b.clone()),
+        kids => Err(BuildError::new(
+            p.loc.clone(),
+            format!(
+                "'{}' needs exactly one nested BSDF, got {}",
+                p.plugin,
+                kids.len()
+            ),
+        )),
+    }
+}
+
+/// `flip_invalid_normals` and `use_shadowing_function` of `bumpmap` and `normalmap`.
+fn perturbed<P>(p: &Props, perturbation: P) -> Result<Perturbed<P>, BuildError> {
+    Ok(Perturbed {
+        perturbation,
+        nested: one_nested(p)?,
+        flip_invalid_normals: p.bool("flip_invalid_normals", true)?,
+        use_shadowing_function: p.bool("use_shadowing_function", true)?,
+    })
+}
+
 /// Build a model from its plugin name, parameters and nested BSDFs.
 /// The most models (leaves, `twosided`s and `blendbsdf`s) one BSDF may be made of. A
 /// `twosided` with one nested BSDF holds it twice, so nested `twosided`s double the size at
@@ -248,7 +290,10 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
             ),
         ));
     };
-    let nested_ok = matches!(p.plugin.as_str(), "twosided" | "blendbsdf");
+    let nested_ok = matches!(
+        p.plugin.as_str(),
+        "twosided" | "blendbsdf" | "bumpmap" | "normalmap" | "mask"
+    );
     if !nested_ok && !p.children.is_empty() {
         return Err(BuildError::new(
             p.loc.clone(),
@@ -465,6 +510,63 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
             };
             Bsdf::Merl(m)
         }
+        "bumpmap" => {
+            let scale = p.float("scale", 1.0)?;
+            let flip = p.bool("flip_invalid_normals", true)?;
+            let shadowing = p.bool("use_shadowing_function", true)?;
+            let known = ["scale", "flip_invalid_normals", "use_shadowing_function"];
+            let textures: Vec<_> = p
+                .textures()
+                .into_iter()
+                .filter(|(n, _, _)| !known.contains(&n.as_str()))
+                .collect();
+            let [(name, texture, loc)] = <[_; 1]>::try_from(textures).map_err(|t| {
+                BuildError::new(
+                    p.loc.clone(),
+                    format!(
+                        "'bumpmap' needs exactly one nested texture (the height field), got {}",
+                        t.len()
+                    ),
+                )
+            })?;
+            if texture.eval_1_grad(&ShadingPoint::default()).is_none() {
+                return Err(BuildError::new(
+                    loc.or_else(|| p.loc.clone()),
+                    format!(
+                        "'bumpmap': texture '{name}' has no texture-space gradient; as in Mitsuba, \
+                         the height field must be a 'bitmap' (for a tangent-space normal map use \
+                         'normalmap')"
+                    ),
+                ));
+            }
+            let mut b = perturbed(&p, Bump { texture, scale })?;
+            b.flip_invalid_normals = flip;
+            b.use_shadowing_function = shadowing;
+            Bsdf::BumpMap(Box::new(b))
+        }
+        "normalmap" => {
+            if !p.has("normalmap") {
+                return Err(BuildError::new(
+                    p.loc.clone(),
+                    "'normalmap' needs parameter 'normalmap' (an RGB texture of tangent-space normals)",
+                ));
+            }
+            let normalmap = p.spectrum("normalmap", 0.5)?;
+            if let SpectrumParam::Texture(t) = &normalmap {
+                if t.channels() != 3 {
+                    return Err(BuildError::new(
+                        p.loc.clone(),
+                        "'normalmap': the 'normalmap' texture is monochromatic; it must have three channels (x, y, z)",
+                    ));
+                }
+            }
+            Bsdf::NormalMap(Box::new(perturbed(&p, NormalTexture { normalmap })?))
+        }
+        "mask" => Bsdf::Mask(Box::new(Mask {
+            opacity: p.float_param("opacity", 0.5)?,
+            nested: one_nested(&p)?,
+        })),
+        "null" => Bsdf::Null(Null),
         _ => unreachable!("plugin table and match agree"),
     };
     p.finish(valid)?;

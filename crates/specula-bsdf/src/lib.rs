@@ -34,7 +34,7 @@ pub mod warp;
 
 pub use bsdf::{
     BsdfContext, BsdfModel, BsdfSample, FloatParam, LobeFlags, ShadingPoint, SpectrumParam,
-    Texture, TransportMode,
+    SurfaceData, Texture, TransportMode,
 };
 pub use build::build_bsdf;
 pub use models::Bsdf;

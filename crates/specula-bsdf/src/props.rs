@@ -285,6 +285,22 @@ impl Props {
         Ok(v)
     }
 
+    /// Every texture-valued parameter whatever its name, in declaration order (for plugins
+    /// that take one nested texture of any name, like Mitsuba's `bumpmap`), each marked used:
+    /// (name, texture, where it was given).
+    pub fn textures(&self) -> Vec<(String, Arc<dyn Texture>, Option<String>)> {
+        self.props
+            .iter()
+            .filter_map(|p| match &p.value {
+                Value::Texture(t) => {
+                    p.used.set(true);
+                    Some((p.name.clone(), t.clone(), p.loc.clone()))
+                }
+                _ => None,
+            })
+            .collect()
+    }
+
     /// Error out on any parameter that was never read.
     pub fn finish(&self, valid: &[&str]) -> Result<(), BuildError> {
         if let Some(p) = self.props.iter().find(|p| !p.used.get()) {

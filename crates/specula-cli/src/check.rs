@@ -93,6 +93,22 @@ fn contains_rgl(b: &Bsdf) -> bool {
         Bsdf::Measured(_) => true,
         Bsdf::TwoSided(t) => contains_rgl(&t.front) || contains_rgl(&t.back),
         Bsdf::Blend(bl) => bl.bsdfs.iter().any(contains_rgl),
+        Bsdf::Mask(m) => contains_rgl(&m.nested),
+        Bsdf::BumpMap(p) => contains_rgl(&p.nested),
+        Bsdf::NormalMap(p) => contains_rgl(&p.nested),
+        _ => false,
+    }
+}
+
+/// Whether `b` contains a `bumpmap` or `normalmap`, nested ones included: their value is the
+/// nested f in a frame perturbed according to wi, times the shadowing term of wo and the
+/// ratio of perturbed to geometric cosines, which is not reciprocal (as in Mitsuba).
+fn contains_perturbed(b: &Bsdf) -> bool {
+    match b {
+        Bsdf::BumpMap(_) | Bsdf::NormalMap(_) => true,
+        Bsdf::TwoSided(t) => contains_perturbed(&t.front) || contains_perturbed(&t.back),
+        Bsdf::Blend(bl) => bl.bsdfs.iter().any(contains_perturbed),
+        Bsdf::Mask(m) => contains_perturbed(&m.nested),
         _ => false,
     }
 }
@@ -128,7 +144,13 @@ pub fn run(args: &CheckArgs, out: &mut dyn Write) -> Result<(), CliError> {
 
     // Measured data: reciprocity as the data allow (see the README's "Checking a material").
     let interpolated = interpolated_merl(bsdf);
-    let reciprocity = if contains_rgl(bsdf) {
+    let reciprocity = if contains_perturbed(bsdf) {
+        Reciprocity::Skip(
+            "bump and normal mapping evaluate the nested BSDF in a frame chosen by wi, with a \
+             shadowing term of wo (Mitsuba's), which is not reciprocal"
+                .into(),
+        )
+    } else if contains_rgl(bsdf) {
         Reciprocity::Skip(
             "RGL tensors tabulate f per incidence direction (Dupuy & Jakob 2018), \
              which is not reciprocal by construction"

@@ -4,7 +4,8 @@ use crate::output::CliError;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use specula_render::render::{render, RenderOptions};
-use specula_render::scene::Scene;
+use specula_render::sampler::SamplerKind;
+use specula_render::scene::{LoadOptions, Scene};
 use std::io::Write;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -21,9 +22,19 @@ pub struct RenderArgs {
     /// Set a scene parameter declared with `<default>`, e.g. `-D spp=16` (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub defines: Vec<String>,
+    /// Render at another film size, WxH (e.g. `320x240`), with the same field of view: the
+    /// image you would get by editing the film's `width`/`height` in the file (its crop
+    /// window reset to the whole film).
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    pub size: Option<(usize, usize)>,
     /// Samples per pixel (overrides the scene's sampler).
     #[arg(long)]
     pub spp: Option<u32>,
+    /// Sampler (overrides the scene's, keeping its sample count and seed): independent,
+    /// stratified, multijitter, orthogonal, ldsampler, or sobol (Specula's Owen-scrambled
+    /// Sobol). Stratified samplers round the sample count as Mitsuba does.
+    #[arg(long, value_name = "NAME")]
+    pub sampler: Option<String>,
     /// Random seed (the image is a deterministic function of the seed).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -56,14 +67,34 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
             output.display()
         )));
     }
-    let scene = Scene::load(&args.scene, &defines).map_err(CliError::usage)?;
+    let load = LoadOptions { size: args.size };
+    let mut scene = Scene::load_with(&args.scene, &defines, &load).map_err(CliError::usage)?;
+    if let Some(name) = &args.sampler {
+        scene.sampler.kind = SamplerKind::parse(name).ok_or_else(|| {
+            CliError::usage(format!(
+                "--sampler: unknown sampler '{name}' (one of: {})",
+                SamplerKind::NAMES.join(", ")
+            ))
+        })?;
+    }
     let opts = RenderOptions {
-        spp: args.spp.unwrap_or(scene.spp),
+        spp: args.spp.unwrap_or(scene.sampler.sample_count),
         seed: args.seed,
         threads: args.threads,
     };
     if opts.spp == 0 {
         return Err(CliError::usage("--spp must be positive"));
+    }
+    scene
+        .sampler
+        .check(opts.spp)
+        .map_err(|e| CliError::usage(format!("sampler '{}': {e}", scene.sampler.kind.name())))?;
+    let spp = scene.sampler.sample_count(opts.spp);
+    if ext.as_deref() == Some("png") && !scene.integrator.aov_channels().is_empty() {
+        return Err(CliError::usage(format!(
+            "{}: the scene's aov integrator writes extra channels: use .exr",
+            output.display()
+        )));
     }
 
     let stop = Arc::new(AtomicBool::new(false));
@@ -90,7 +121,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     );
     let start = std::time::Instant::now();
     let samples_per_tile =
-        (specula_render::render::TILE * specula_render::render::TILE) as f64 * opts.spp as f64;
+        (specula_render::render::TILE * specula_render::render::TILE) as f64 * spp as f64;
     let result = render(&scene, &opts, &stop, &|done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
@@ -110,6 +141,13 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     }
     let write = match ext.as_deref() {
         Some("png") => specula_render::image_io::write_png(&output, w, h, &result.rgb),
+        _ if !result.aovs.is_empty() => specula_render::image_io::write_exr_with_channels(
+            &output,
+            w,
+            h,
+            &result.rgb,
+            &result.aovs,
+        ),
         _ => specula_render::image_io::write_exr(&output, w, h, &result.rgb),
     };
     write.map_err(CliError::usage)?;
@@ -117,12 +155,13 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let c = result.counters;
     writeln!(
         out,
-        "{}{}: {}×{} at {} spp in {:.2} s — {:.3} M samples/s, {:.3} M rays/s, {} NaN/Inf samples discarded{}",
+        "{}{}: {}×{} at {} spp ({}) in {:.2} s — {:.3} M samples/s, {:.3} M rays/s, {} NaN/Inf samples discarded{}",
         if result.complete { "" } else { "interrupted: " },
         output.display(),
         w,
         h,
-        opts.spp,
+        result.spp,
+        scene.sampler.kind.name(),
         secs,
         c.samples as f64 / secs / 1e6,
         c.rays as f64 / secs / 1e6,
@@ -130,4 +169,33 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         if result.complete { "" } else { " (unrendered tiles are black)" }
     )?;
     Ok(())
+}
+
+/// Parses `--size WxH` (`x` or `×`; each side 1 … 65536).
+fn parse_size(s: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("expected WIDTHxHEIGHT (e.g. 320x240), got '{s}'");
+    let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
+    let w: usize = w.trim().parse().map_err(|_| bad())?;
+    let h: usize = h.trim().parse().map_err(|_| bad())?;
+    if !(1..=1 << 16).contains(&w) || !(1..=1 << 16).contains(&h) {
+        return Err(format!(
+            "each side of --size must lie in [1, 65536], got {w}x{h}"
+        ));
+    }
+    Ok((w, h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_size;
+
+    #[test]
+    fn size_argument() {
+        assert_eq!(parse_size("320x240"), Ok((320, 240)));
+        assert_eq!(parse_size("64×48"), Ok((64, 48)));
+        assert_eq!(parse_size("7X5"), Ok((7, 5)));
+        for bad in ["320", "x240", "0x10", "10x0", "-3x4", "70000x2", "axb", ""] {
+            assert!(parse_size(bad).is_err(), "{bad}");
+        }
+    }
 }

@@ -978,3 +978,65 @@ fn gallery_rejects_bad_arguments() {
         assert!(!out.exists(), "{args:?} wrote a picture");
     }
 }
+
+#[test]
+fn render_with_another_sampler_and_aov_channels() {
+    let dir = std::env::temp_dir().join(format!("specula-cli-aov-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("aov.xml");
+    std::fs::write(
+        &scene,
+        r#"<scene version="3.0.0">
+    <integrator type="aov">
+        <string name="aovs" value="nn:sh_normal, depth.y:depth"/>
+        <integrator type="path" name="image"/>
+    </integrator>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0,0,5" target="0,0,0" up="0,1,0"/></transform>
+        <sampler type="stratified"><integer name="sample_count" value="5"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="12"/></film>
+    </sensor>
+    <shape type="sphere"/>
+    <emitter type="constant"/>
+</scene>"#,
+    )
+    .unwrap();
+    let out = dir.join("aov.exr");
+    let run = |extra: &[&str], out: &std::path::Path| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_specula"))
+            .args(["render", scene.to_str().unwrap(), "--quiet", "-o"])
+            .arg(out)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    // the scene's stratified sampler rounds 5 samples up to 9
+    let o = run(&[], &out);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("16×12 at 9 spp (stratified)"),
+        "{}",
+        stdout(&o)
+    );
+    let bytes = std::fs::read(&out).unwrap();
+    for name in ["image.A", "nn.X", "nn.Z", "depth.y.T"] {
+        let needle = format!("{name}\0");
+        assert!(
+            bytes.windows(needle.len()).any(|w| w == needle.as_bytes()),
+            "channel {name} missing"
+        );
+    }
+    let o = run(&["--sampler", "sobol", "--spp", "5"], &out);
+    assert!(stdout(&o).contains("at 5 spp (sobol)"), "{}", stdout(&o));
+    let o = run(&["--sampler", "halton"], &out);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("unknown sampler 'halton'"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&[], &dir.join("aov.png"));
+    assert!(stderr(&o).contains("use .exr"), "{}", stderr(&o));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -51,9 +51,10 @@
 //! the array, which only a pathologically deep tree could need, spills to the heap).
 
 use crate::core::{Hit, Ray};
-use crate::geometry::Geometry;
+use crate::geometry::{Geometry, ShapeGroup};
 use glam::{DVec3, Mat3, Vec3, Vec3A};
 use std::mem::MaybeUninit;
+use std::sync::Arc;
 
 /// Mitsuba's `math::RayEpsilon<float>`: 1500 · 2⁻²⁴ ≈ 8.94e-5.
 pub const RAY_EPSILON: f32 = 1500.0 / 16_777_216.0;
@@ -125,6 +126,18 @@ enum PrimShape {
     Disk {
         m: Mat3,
         t: Vec3,
+    },
+    /// World to object as for a disk; the open cylinder x² + y² = 1, 0 ≤ z ≤ 1.
+    Cylinder {
+        m: Mat3,
+        t: Vec3,
+    },
+    /// An instance of shape group `group` (index into `Bvh::groups`), world to group space
+    /// as for a disk.
+    Instance {
+        m: Mat3,
+        t: Vec3,
+        group: u32,
     },
 }
 
@@ -253,6 +266,8 @@ pub struct Bvh {
     packet_ids: Vec<[(u32, u32); LANES]>,
     analytic: Vec<PrimShape>,
     analytic_ids: Vec<(u32, u32)>,
+    /// The shape groups that `PrimShape::Instance`s refer to (shared with the scene's shapes).
+    groups: Vec<Arc<ShapeGroup>>,
     primitives: usize,
     isa: Isa,
 }
@@ -265,6 +280,7 @@ impl Default for Bvh {
             packet_ids: Vec::new(),
             analytic: Vec::new(),
             analytic_ids: Vec::new(),
+            groups: Vec::new(),
             primitives: 0,
             isa: Isa::detect(),
         }
@@ -305,6 +321,7 @@ impl Bvh {
     /// Builds the BVH over every primitive of `geoms` (copying their data).
     pub fn build(geoms: &[Geometry]) -> Bvh {
         let mut prims = Vec::new();
+        let mut groups: Vec<Arc<ShapeGroup>> = Vec::new();
         for (g, geom) in geoms.iter().enumerate() {
             let g = g as u32;
             match geom {
@@ -335,6 +352,33 @@ impl Bvh {
                         index: 0,
                     })
                 }
+                Geometry::Cylinder(c) => {
+                    let m = Mat3::from_mat4(c.to_object);
+                    let t = c.to_object.w_axis.truncate();
+                    prims.push(Prim {
+                        shape: PrimShape::Cylinder { m, t },
+                        geom: g,
+                        index: 0,
+                    })
+                }
+                // one primitive per instance, on the slot of its first group shape
+                Geometry::Instance(inst) if inst.member == 0 => {
+                    let group = match groups.iter().position(|x| Arc::ptr_eq(x, &inst.group)) {
+                        Some(i) => i,
+                        None => {
+                            groups.push(inst.group.clone());
+                            groups.len() - 1
+                        }
+                    } as u32;
+                    let m = Mat3::from_mat4(inst.to_object);
+                    let t = inst.to_object.w_axis.truncate();
+                    prims.push(Prim {
+                        shape: PrimShape::Instance { m, t, group },
+                        geom: g,
+                        index: 0,
+                    })
+                }
+                Geometry::Instance(_) => {}
             }
         }
         // Drop primitives that can never be hit or would poison the build.
@@ -346,7 +390,9 @@ impl Bvh {
                 PrimShape::Sphere { center, radius } => {
                     (center - Vec3::splat(radius), center + Vec3::splat(radius))
                 }
-                PrimShape::Disk { .. } => geoms[p.geom as usize].bounds(),
+                PrimShape::Disk { .. }
+                | PrimShape::Cylinder { .. }
+                | PrimShape::Instance { .. } => geoms[p.geom as usize].bounds(),
             };
             if !(lo.is_finite() && hi.is_finite()) {
                 continue;
@@ -363,6 +409,7 @@ impl Bvh {
         }
         let mut out = Bvh {
             primitives: kept.len(),
+            groups,
             ..Bvh::default()
         };
         if kept.is_empty() {
@@ -1329,8 +1376,12 @@ mod x86 {
 }
 
 /// The closest hit so far: (analytic leaf reference, or packet index · LANES + lane; whether
-/// analytic; b1; b2).
-type Best = Option<(u32, bool, f32, f32)>;
+/// analytic; b1; b2; for an instance, the group shape and primitive hit).
+type Best = Option<(u32, bool, f32, f32, (u32, u32))>;
+
+/// An analytic hit: t, two surface parameters, and for an instance the group shape and
+/// primitive hit ((0, 0) otherwise).
+type AnalyticHit = (f32, f32, f32, (u32, u32));
 
 /// A traversal stack entry: a child reference and where the ray enters its box.
 #[derive(Clone, Copy)]
@@ -1437,13 +1488,36 @@ impl Bvh {
 
     /// Intersects an analytic shape.
     #[inline(never)]
-    fn intersect_analytic(&self, code: u32, ray: &Ray, t_max: f32) -> Option<(f32, f32, f32)> {
+    fn intersect_analytic(&self, code: u32, ray: &Ray, t_max: f32) -> Option<AnalyticHit> {
+        let with0 = |(t, u, v)| (t, u, v, (0, 0));
         match &self.analytic[(code & !(LEAF | ANALYTIC)) as usize] {
-            PrimShape::Triangle(v) => TriRay::new(ray).intersect(v, t_max),
-            PrimShape::Sphere { center, radius } => {
-                Some((intersect_sphere(ray, *center, *radius, t_max)?, 0.0, 0.0))
+            PrimShape::Triangle(v) => TriRay::new(ray).intersect(v, t_max).map(with0),
+            PrimShape::Sphere { center, radius } => Some((
+                intersect_sphere(ray, *center, *radius, t_max)?,
+                0.0,
+                0.0,
+                (0, 0),
+            )),
+            PrimShape::Disk { m, t } => intersect_disk(ray, m, *t, t_max).map(with0),
+            PrimShape::Cylinder { m, t } => {
+                Some((intersect_cylinder(ray, m, *t, t_max)?, 0.0, 0.0, (0, 0)))
             }
-            PrimShape::Disk { m, t } => intersect_disk(ray, m, *t, t_max),
+            PrimShape::Instance { m, t, group } => {
+                let local = instance_ray(ray, m, *t, t_max);
+                let h = self.groups[*group as usize].accel.intersect(&local)?;
+                Some((h.t, h.u, h.v, (h.shape, h.prim)))
+            }
+        }
+    }
+
+    /// Whether an analytic shape blocks the ray before `t_max`.
+    #[inline(never)]
+    fn occluded_analytic(&self, code: u32, ray: &Ray, t_max: f32) -> bool {
+        match &self.analytic[(code & !(LEAF | ANALYTIC)) as usize] {
+            PrimShape::Instance { m, t, group } => self.groups[*group as usize]
+                .accel
+                .occluded(&instance_ray(ray, m, *t, t_max)),
+            _ => self.intersect_analytic(code, ray, t_max).is_some(),
         }
     }
 
@@ -1548,9 +1622,9 @@ impl Bvh {
         out: &mut TriOut,
     ) {
         if cur & ANALYTIC != 0 {
-            if let Some((t, u, v)) = self.intersect_analytic(cur, ray, *t_max) {
+            if let Some((t, u, v, sub)) = self.intersect_analytic(cur, ray, *t_max) {
                 *t_max = t;
-                *best = Some((cur, true, u, v));
+                *best = Some((cur, true, u, v, sub));
             }
             return;
         }
@@ -1584,6 +1658,7 @@ impl Bvh {
                     false,
                     out.b1[lane],
                     out.b2[lane],
+                    (0, 0),
                 ));
             }
             pi += 1 + pair as usize;
@@ -1593,10 +1668,16 @@ impl Bvh {
     /// The hit recorded as `best` at distance `t`.
     #[inline(always)]
     fn make_hit(&self, best: Best, t: f32) -> Option<Hit> {
-        best.map(|(code, analytic, u, v)| {
+        best.map(|(code, analytic, u, v, sub)| {
             let (shape, prim, vertices) = if analytic {
-                let (shape, prim) = self.analytic_ids[(code & !(LEAF | ANALYTIC)) as usize];
-                (shape, prim, None)
+                let i = (code & !(LEAF | ANALYTIC)) as usize;
+                let (shape, prim) = self.analytic_ids[i];
+                if let PrimShape::Instance { .. } = self.analytic[i] {
+                    // the slot of the group shape hit, and its primitive
+                    (shape + sub.0, sub.1, None)
+                } else {
+                    (shape, prim, None)
+                }
             } else {
                 let (p, lane) = (code as usize / LANES, code as usize % LANES);
                 let (shape, prim) = self.packet_ids[p][lane];
@@ -1647,7 +1728,7 @@ impl Bvh {
                     continue;
                 }
             } else if cur & ANALYTIC != 0 {
-                if self.intersect_analytic(cur, ray, t_max).is_some() {
+                if self.occluded_analytic(cur, ray, t_max) {
                     return true;
                 }
             } else {
@@ -1761,6 +1842,45 @@ fn intersect_sphere(ray: &Ray, center: Vec3, radius: f32, t_max: f32) -> Option<
     None
 }
 
+/// The ray in an instance's group space (`local = m · p + t`); the parameter t is unchanged.
+#[inline]
+fn instance_ray(ray: &Ray, m: &Mat3, tr: Vec3, t_max: f32) -> Ray {
+    Ray {
+        o: *m * ray.o + tr,
+        d: *m * ray.d,
+        t_max,
+    }
+}
+
+/// Ray/open cylinder (x² + y² = 1, 0 ≤ z ≤ 1 in object space), solved in double precision as
+/// Mitsuba does on the CPU: the nearer root in (0, t_max) whose z lies in [0, 1].
+#[inline]
+fn intersect_cylinder(ray: &Ray, m: &Mat3, tr: Vec3, t_max: f32) -> Option<f32> {
+    let o = (*m * ray.o + tr).as_dvec3();
+    let d = (*m * ray.d).as_dvec3();
+    let a = d.x * d.x + d.y * d.y;
+    let b = 2.0 * (d.x * o.x + d.y * o.y);
+    let c = o.x * o.x + o.y * o.y - 1.0;
+    let disc = b * b - 4.0 * a * c;
+    if a == 0.0 || !(disc >= 0.0) {
+        return None;
+    }
+    let q = -0.5 * (b + disc.sqrt().copysign(b));
+    let (r0, r1) = (q / a, c / q);
+    let (x0, x1) = if r0 <= r1 { (r0, r1) } else { (r1, r0) };
+    let tm = t_max as f64;
+    for x in [x0, x1] {
+        let z = o.z + d.z * x;
+        if x > 0.0 && x < tm && (0.0..=1.0).contains(&z) {
+            let t = x as f32;
+            if t > 0.0 && t < t_max {
+                return Some(t);
+            }
+        }
+    }
+    None
+}
+
 /// Ray/disk in object space: (t, local x, local y).
 #[inline]
 fn intersect_disk(ray: &Ray, m: &Mat3, tr: Vec3, t_max: f32) -> Option<(f32, f32, f32)> {
@@ -1817,7 +1937,7 @@ mod tests {
         let knot = load_obj(&asset("torusknot.obj")).unwrap();
         let ico = load_ply(&asset("icosphere.ply")).unwrap();
         let bumpy = load_obj(&asset("bumpy.obj")).unwrap();
-        vec![
+        let mut shapes = vec![
             Geometry::mesh(bumpy, Mat4::from_scale(Vec3::splat(5.0)), true, false).unwrap(),
             Geometry::mesh(
                 knot,
@@ -1848,7 +1968,29 @@ mod tests {
                     * Mat4::from_scale(Vec3::splat(0.3)),
                 false,
             ),
-        ]
+            Geometry::cylinder(
+                Vec3::new(-2.5, -1.5, -1.0),
+                Vec3::new(-2.2, -1.5, 1.0),
+                0.4,
+                Mat4::IDENTITY,
+                false,
+            )
+            .unwrap(),
+        ];
+        // two slots of one instance of a group (a mesh and a sphere), after the shapes above
+        let ico = load_ply(&asset("icosphere.ply")).unwrap();
+        let group = std::sync::Arc::new(crate::geometry::ShapeGroup::new(
+            vec![
+                Geometry::mesh(ico, Mat4::IDENTITY, false, false).unwrap(),
+                Geometry::sphere(Vec3::new(1.2, 0.0, 0.0), 0.5, Mat4::IDENTITY, false),
+            ],
+            vec![0, 0],
+        ));
+        let to_world = Mat4::from_translation(Vec3::new(1.0, -2.0, 1.0))
+            * Mat4::from_rotation_z(0.5)
+            * Mat4::from_scale(Vec3::new(0.5, 0.7, 0.5));
+        shapes.extend(Geometry::instance(&group, to_world).unwrap());
+        shapes
     }
 
     /// Every primitive of `geoms`, tested one by one with the same primitive routines.
@@ -1888,12 +2030,14 @@ mod tests {
         for (i, &(shape, prim)) in bvh.analytic_ids.iter().enumerate() {
             n += 1;
             let t_max = best.map_or(ray.t_max, |h| h.t);
-            if let Some((t, u, v)) = bvh.intersect_analytic(LEAF | ANALYTIC | i as u32, ray, t_max)
+            if let Some((t, u, v, sub)) =
+                bvh.intersect_analytic(LEAF | ANALYTIC | i as u32, ray, t_max)
             {
+                let instance = matches!(bvh.analytic[i], PrimShape::Instance { .. });
                 best = Some(Hit {
                     t,
-                    shape,
-                    prim,
+                    shape: shape + sub.0,
+                    prim: if instance { sub.1 } else { prim },
                     u,
                     v,
                     vertices: None,
@@ -2178,6 +2322,7 @@ mod tests {
                 normals: None,
                 uvs: None,
                 indices,
+                attributes: vec![],
             };
             Geometry::mesh(data, m, false, false).unwrap()
         };

@@ -2,6 +2,7 @@
 
 use glam::{Vec2, Vec3};
 use specula_bsdf::frame::Frame;
+use specula_bsdf::{ShadingPoint, SurfaceData};
 use std::fmt;
 
 /// A ray o + t·d for t in (0, t_max). `d` need not be normalised for intersection, but every
@@ -56,6 +57,35 @@ pub struct SurfaceGeometry {
     /// materials; `t = n × s`.
     pub sh_frame: Frame,
     pub uv: Vec2,
+    /// ∂p/∂u and ∂p/∂v in world space (Mitsuba's `si.dp_du`, `si.dp_dv`: from the uv
+    /// parameterisation of a mesh, the barycentric one without uvs, the analytic one of a
+    /// sphere or disk), what `bumpmap` perturbs the frame with.
+    pub dp_du: Vec3,
+    pub dp_dv: Vec3,
+}
+
+impl SurfaceGeometry {
+    /// The shading point a BSDF is evaluated at: uv, position, the derivatives and the
+    /// geometric normal in the local shading frame, and the hit primitive with its
+    /// barycentrics and the shape's per-primitive data (`surface`) for `mesh_attribute`.
+    #[inline]
+    pub fn shading_point<'a>(
+        &self,
+        hit: &Hit,
+        surface: Option<&'a dyn SurfaceData>,
+    ) -> ShadingPoint<'a> {
+        let f = &self.sh_frame;
+        ShadingPoint {
+            uv: self.uv,
+            p: self.p,
+            dp_du: f.to_local(self.dp_du),
+            dp_dv: f.to_local(self.dp_dv),
+            n_geo: f.to_local(self.n_geo),
+            prim: hit.prim,
+            bary: Vec2::new(hit.u, hit.v),
+            surface,
+        }
+    }
 }
 
 /// A point sampled on a surface (for area lights).

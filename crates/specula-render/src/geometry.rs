@@ -31,12 +31,32 @@
 //!   `local = M⁻¹ · p` (θ from drjit's `unit_angle_z`), `∂p/∂u = 2π M · (-y, x, 0)`; the
 //!   normal points outwards. (Mitsuba only warns about a shearing or non-uniformly scaling
 //!   `M`; such spheres are not expected to match it exactly.)
+//! - **Cylinder** (open, no caps): with `M = to_world · translate(p0) · to_frame(p1 − p0) ·
+//!   scale(radius, radius, |p1 − p0|)` (`to_frame` from Mitsuba's `coordinate_system`), the unit
+//!   cylinder x² + y² = 1, 0 ≤ z ≤ 1 of `local = M⁻¹ · p`; `uv = (φ / 2π, z)`,
+//!   `∂p/∂u = 2π M · (−y, x, 0)`; the normal is `M`'s inverse transpose applied to (x, y, 0)
+//!   (outwards); a sampled point's normal is `normalize(∂p/∂u × ∂p/∂v)`, which points inwards
+//!   when `M` mirrors — both as Mitsuba 3.9 does. Area `2π |M·x| |M·z|` (exact without shear
+//!   or non-uniform x/y scaling, which Mitsuba only warns about). A negative radius turns the
+//!   parameterisation by π, as in Mitsuba.
+//! - **Instance** (`shapegroup` + `instance`): a [`ShapeGroup`] holds its shapes in the
+//!   group's own space, their BSDFs and one BVH over them, shared (`Arc`) by every instance.
+//!   An instance of a group of k shapes occupies k consecutive scene shape slots (one per
+//!   group shape, so that a hit's shape index names the right BSDF), of which only the first
+//!   is put in the scene's BVH: one primitive whose box is the transformed group box and
+//!   whose intersection carries the ray into the group's BVH. The surface is the group
+//!   shape's, carried to world space: `p` by `to_world`, the normals by its inverse
+//!   transpose, `s` re-projected onto the tangent plane. Instances cannot emit (Mitsuba
+//!   forbids emitters in shape groups) and are never sampled by area (area 0, like
+//!   Mitsuba's, which does not implement it).
 
 use crate::core::{Hit, PositionSample, Ray, Result, SceneError, SurfaceGeometry};
-use crate::mesh_io::MeshData;
+use crate::mesh_io::{MeshAttribute, MeshData};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use specula_bsdf::frame::Frame;
+use specula_bsdf::{Rgb, SurfaceData};
 use std::f32::consts::PI;
+use std::sync::Arc;
 
 const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
 const INV_TWO_PI: f32 = 0.5 * std::f32::consts::FRAC_1_PI;
@@ -47,6 +67,8 @@ pub enum Geometry {
     Mesh(TriMesh),
     Sphere(Sphere),
     Disk(Disk),
+    Cylinder(Cylinder),
+    Instance(Instance),
 }
 
 /// An indexed triangle mesh in world space (treat as read-only: the sampling tables are
@@ -59,6 +81,8 @@ pub struct TriMesh {
     pub uvs: Option<Vec<Vec2>>,
     pub indices: Vec<[u32; 3]>,
     pub flip_normals: bool,
+    /// Vertex and face attributes of a PLY file (for `mesh_attribute`).
+    pub attributes: Vec<MeshAttribute>,
     /// Cumulative triangle areas (`cdf[i]` = area of triangles `0..=i`).
     cdf: Vec<f64>,
     /// First and last triangle with a non-zero area.
@@ -97,6 +121,63 @@ pub struct Disk {
     /// Unit world-space normal (`to_world`'s inverse transpose applied to +z), not flipped.
     n: Vec3,
     area: f32,
+}
+
+/// An analytic open cylinder: the unit cylinder x² + y² = 1, 0 ≤ z ≤ 1 in object space, any
+/// affine `to_world` (see the module docs).
+#[derive(Clone, Debug)]
+pub struct Cylinder {
+    pub to_world: Mat4,
+    pub to_object: Mat4,
+    pub flip_normals: bool,
+    /// `to_world`'s inverse transpose (3×3).
+    nm: Mat3,
+    /// Sign of `to_world`'s determinant (sampled normals follow ∂p/∂u × ∂p/∂v).
+    det_sign: f32,
+    area: f32,
+}
+
+/// Mitsuba's `shapegroup`: shapes in the group's own space with their scene BSDF indices, and
+/// one BVH over them that every [`Instance`] of the group shares.
+#[derive(Debug)]
+pub struct ShapeGroup {
+    pub shapes: Vec<Geometry>,
+    /// Scene BSDF index of each shape.
+    pub bsdfs: Vec<u32>,
+    pub accel: crate::accel::Bvh,
+    /// Bounds of the group's shapes (min, max); empty (min > max) for an empty group.
+    bounds: (Vec3, Vec3),
+}
+
+impl ShapeGroup {
+    /// A group of `shapes` (which must not be instances) with their scene BSDF indices.
+    pub fn new(shapes: Vec<Geometry>, bsdfs: Vec<u32>) -> ShapeGroup {
+        let accel = crate::accel::Bvh::build(&shapes);
+        let bounds = shapes
+            .iter()
+            .map(Geometry::bounds)
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), (a, b)| {
+                (lo.min(a), hi.max(b))
+            });
+        ShapeGroup {
+            shapes,
+            bsdfs,
+            accel,
+            bounds,
+        }
+    }
+}
+
+/// One scene slot of an instance of a [`ShapeGroup`]: it stands for the group's shape
+/// `member`; the slot of member 0 is the one in the scene's BVH (see the module docs).
+#[derive(Clone, Debug)]
+pub struct Instance {
+    pub group: Arc<ShapeGroup>,
+    pub member: u32,
+    pub to_world: Mat4,
+    pub to_object: Mat4,
+    /// `to_world`'s inverse transpose (3×3).
+    nm: Mat3,
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -206,6 +287,7 @@ impl Geometry {
             normals,
             uvs,
             indices,
+            attributes,
         } = data;
         let positions: Vec<Vec3> = positions
             .into_iter()
@@ -224,13 +306,9 @@ impl Geometry {
         } else {
             Some(recompute_vertex_normals(&positions, &indices))
         };
-        Ok(Geometry::Mesh(TriMesh::new(
-            positions,
-            normals,
-            uvs,
-            indices,
-            flip_normals,
-        )))
+        let mut mesh = TriMesh::new(positions, normals, uvs, indices, flip_normals);
+        mesh.attributes = attributes;
+        Ok(Geometry::Mesh(mesh))
     }
 
     /// Mitsuba's `rectangle`: the square [-1, 1]² in the z = 0 plane, normal +z.
@@ -338,6 +416,139 @@ impl Geometry {
     }
 }
 
+impl Geometry {
+    /// Mitsuba's `cylinder` from `p0` to `p1` with `radius`, then `to_world`. Errors when the
+    /// axis or the radius is degenerate or the transform is not invertible.
+    pub fn cylinder(
+        p0: Vec3,
+        p1: Vec3,
+        radius: f32,
+        to_world: Mat4,
+        flip_normals: bool,
+    ) -> Result<Geometry> {
+        let d = p1 - p0;
+        let len = d.length();
+        if !(len > 0.0 && len.is_finite()) {
+            return Err(SceneError::new(
+                None,
+                format!("cylinder: p0 {p0} and p1 {p1} must be distinct finite points"),
+            ));
+        }
+        if !(radius != 0.0 && radius.is_finite()) {
+            return Err(SceneError::new(
+                None,
+                format!("cylinder: radius must be nonzero and finite, got {radius}"),
+            ));
+        }
+        let f = Frame::from_normal(d / len);
+        let frame = Mat4::from_cols(
+            f.s.extend(0.0),
+            f.t.extend(0.0),
+            f.n.extend(0.0),
+            glam::Vec4::W,
+        );
+        let m = to_world
+            * Mat4::from_translation(p0)
+            * frame
+            * Mat4::from_scale(Vec3::new(radius, radius, len));
+        let det = Mat3::from_mat4(m).determinant();
+        if !(det != 0.0 && det.is_finite() && m.is_finite()) {
+            return Err(SceneError::new(
+                None,
+                "cylinder: to_world is not invertible",
+            ));
+        }
+        let r = m.transform_vector3(Vec3::X).length();
+        let l = m.transform_vector3(Vec3::Z).length();
+        Ok(Geometry::Cylinder(Cylinder {
+            to_world: m,
+            to_object: m.inverse(),
+            flip_normals,
+            nm: normal_matrix(&m),
+            det_sign: det.signum(),
+            area: 2.0 * PI * r * l,
+        }))
+    }
+
+    /// The scene slots of one instance of `group` placed by `to_world`: one per group shape
+    /// (see the module docs). Errors when `to_world` is not invertible.
+    pub fn instance(group: &Arc<ShapeGroup>, to_world: Mat4) -> Result<Vec<Geometry>> {
+        let det = Mat3::from_mat4(to_world).determinant();
+        if !(det != 0.0 && det.is_finite() && to_world.is_finite()) {
+            return Err(SceneError::new(
+                None,
+                "instance: to_world is not invertible",
+            ));
+        }
+        let to_object = to_world.inverse();
+        let nm = normal_matrix(&to_world);
+        Ok((0..group.shapes.len() as u32)
+            .map(|member| {
+                Geometry::Instance(Instance {
+                    group: group.clone(),
+                    member,
+                    to_world,
+                    to_object,
+                    nm,
+                })
+            })
+            .collect())
+    }
+}
+
+impl Geometry {
+    /// For Mitsuba's `merge`: the key under which this shape may be concatenated with other
+    /// meshes — (has vertex normals, has texture coordinates, flip_normals) — or `None` for a
+    /// shape that is not a triangle mesh in Mitsuba (spheres, disks, cylinders, instances;
+    /// rectangles and cubes are meshes there too). A merged rectangle loses its analytic
+    /// sampling, which only an emitting rectangle uses, and emitters are never merged.
+    pub fn merge_key(&self) -> Option<(bool, bool, bool)> {
+        match self {
+            Geometry::Mesh(m) => Some((m.normals.is_some(), m.uvs.is_some(), m.flip_normals)),
+            _ => None,
+        }
+    }
+
+    /// Concatenates meshes that share a [`Geometry::merge_key`] into one mesh (vertices,
+    /// normals, texture coordinates and triangles in order). Errors if there are none, the
+    /// keys differ, or the result would exceed 2³² vertices.
+    pub fn merge_meshes(shapes: Vec<Geometry>) -> Result<Geometry> {
+        let key = shapes.first().and_then(Geometry::merge_key);
+        let Some((has_n, has_uv, flip)) = key else {
+            return Err(SceneError::new(None, "merge: no mesh to merge"));
+        };
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        let mut uvs = Vec::new();
+        let mut indices = Vec::new();
+        for g in shapes {
+            if g.merge_key() != key {
+                return Err(SceneError::new(None, "merge: meshes of different kinds"));
+            }
+            let Geometry::Mesh(m) = g else {
+                unreachable!("merge_key is Some for meshes only")
+            };
+            let base = u32::try_from(positions.len())
+                .ok()
+                .filter(|b| (*b as u64) + (m.positions.len() as u64) <= u32::MAX as u64)
+                .ok_or_else(|| {
+                    SceneError::new(None, "merge: more than 2^32 vertices in one merged mesh")
+                })?;
+            positions.extend_from_slice(&m.positions);
+            normals.extend(m.normals.into_iter().flatten());
+            uvs.extend(m.uvs.into_iter().flatten());
+            indices.extend(m.indices.iter().map(|t| t.map(|i| i + base)));
+        }
+        Ok(Geometry::Mesh(TriMesh::new(
+            positions,
+            has_n.then_some(normals),
+            has_uv.then_some(uvs),
+            indices,
+            flip,
+        )))
+    }
+}
+
 /// Angle-weighted vertex normals (Mitsuba's `Mesh::recompute_vertex_normals`).
 fn recompute_vertex_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
     let mut acc = vec![Vec3::ZERO; positions.len()];
@@ -396,6 +607,7 @@ impl TriMesh {
             uvs,
             indices,
             flip_normals,
+            attributes: Vec::new(),
             cdf,
             valid: (first.min(last), last),
             area: sum as f32,
@@ -480,7 +692,7 @@ impl TriMesh {
         let p = p2 * b2 + (p1 * b1 + p0 * b0);
         let mut n = dp0.cross(dp1).normalize_or_zero();
         let index = || self.indices[tri].map(|k| k as usize);
-        let (uv, dp_du) = match &self.uvs {
+        let (uv, dp_du, dp_dv) = match &self.uvs {
             Some(uvs) => {
                 let [i0, i1, i2] = index();
                 let (uv0, uv1, uv2) = (uvs[i0], uvs[i1], uvs[i2]);
@@ -488,14 +700,19 @@ impl TriMesh {
                 let duv0 = uv1 - uv0;
                 let duv1 = uv2 - uv0;
                 let det = duv0.x * duv1.y - duv0.y * duv1.x;
-                let dp_du = if det != 0.0 {
-                    (dp0 * duv1.y - dp1 * duv0.y) * (1.0 / det)
+                let (dp_du, dp_dv) = if det != 0.0 {
+                    let inv = 1.0 / det;
+                    (
+                        (dp0 * duv1.y - dp1 * duv0.y) * inv,
+                        (dp1 * duv0.x - dp0 * duv1.x) * inv,
+                    )
                 } else {
-                    Frame::from_normal(n).s
+                    let f = Frame::from_normal(n);
+                    (f.s, f.t)
                 };
-                (uv, dp_du)
+                (uv, dp_du, dp_dv)
             }
-            None => (Vec2::new(b1, b2), dp0),
+            None => (Vec2::new(b1, b2), dp0, dp1),
         };
         let mut sn = match &self.normals {
             Some(ns) => {
@@ -518,26 +735,72 @@ impl TriMesh {
             n_geo: n,
             sh_frame: shading_frame(sn, dp_du),
             uv,
+            dp_du,
+            dp_dv,
         }
     }
 }
 
+impl TriMesh {
+    /// The attribute called `name`, if the mesh has it.
+    pub fn attribute(&self, name: &str) -> Option<&MeshAttribute> {
+        self.attributes.iter().find(|a| a.name == name)
+    }
+}
+
+impl SurfaceData for TriMesh {
+    /// Mitsuba's `Mesh::eval_attribute`: vertex attributes interpolated with the barycentrics
+    /// (b0 v0 + b1 v1 + b2 v2), face attributes constant per triangle; 1 channel in all three
+    /// (4-channel colours lose their alpha, which `mesh_attribute` refuses at load).
+    fn attribute(&self, name: &str, prim: u32, bary: Vec2) -> Option<Rgb> {
+        let a = TriMesh::attribute(self, name)?;
+        let d = a.dim;
+        let get = |i: usize| -> Rgb {
+            let v = &a.data[i * d..i * d + d];
+            if d >= 3 {
+                Rgb::new(v[0], v[1], v[2])
+            } else {
+                Rgb::splat(v[0])
+            }
+        };
+        let prim = prim as usize;
+        if a.is_face() {
+            return (prim < self.indices.len()).then(|| get(prim));
+        }
+        let [i0, i1, i2] = self.indices.get(prim)?.map(|k| k as usize);
+        let (b1, b2) = (bary.x, bary.y);
+        let b0 = 1.0 - b1 - b2;
+        Some(get(i0) * b0 + get(i1) * b1 + get(i2) * b2)
+    }
+}
+
 impl Sphere {
-    /// Local (unit sphere) coordinates of a world point, and its (uv, ∂p/∂u).
-    fn param(&self, p: Vec3) -> (Vec2, Vec3) {
+    /// The uv of a world point on the sphere, and ∂p/∂u, ∂p/∂v there (Mitsuba's: with `l`
+    /// the unit-sphere point, `2π M·(−l.y, l.x, 0)` and `π M·(l.z cos φ, l.z sin φ, −r)`,
+    /// r = √(l.x² + l.y²); at the poles ∂p/∂u = 0 and ∂p/∂v = `π M·(1, 0, 0)`).
+    fn param(&self, p: Vec3) -> (Vec2, Vec3, Vec3) {
         let local = self.to_object.transform_point3(p);
         let rd2 = local.x * local.x + local.y * local.y;
         let theta = unit_angle_z(local);
         let phi = phi_positive(local.y, local.x);
         let uv = Vec2::new(phi * INV_TWO_PI, theta * INV_PI);
-        let dp_du = if rd2 > 0.0 {
-            self.to_world
-                .transform_vector3(Vec3::new(-local.y, local.x, 0.0))
-                * (2.0 * PI)
+        let (dp_du, dp_dv) = if rd2 > 0.0 {
+            let rd = rd2.sqrt();
+            let (cos_phi, sin_phi) = (local.x / rd, local.y / rd);
+            (
+                self.to_world
+                    .transform_vector3(Vec3::new(-local.y, local.x, 0.0))
+                    * (2.0 * PI),
+                self.to_world.transform_vector3(Vec3::new(
+                    local.z * cos_phi,
+                    local.z * sin_phi,
+                    -rd,
+                )) * PI,
+            )
         } else {
-            Vec3::ZERO
+            (Vec3::ZERO, self.to_world.transform_vector3(Vec3::X) * PI)
         };
-        (uv, dp_du)
+        (uv, dp_du, dp_dv)
     }
 
     fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
@@ -545,7 +808,7 @@ impl Sphere {
         // Re-project onto the sphere (as Mitsuba does) to reduce the error of o + t·d.
         let mut n = (p - self.center).normalize_or(Vec3::Z);
         let p = self.center + n * self.radius;
-        let (uv, dp_du) = self.param(p);
+        let (uv, dp_du, dp_dv) = self.param(p);
         if self.flip_normals {
             n = -n;
         }
@@ -554,6 +817,8 @@ impl Sphere {
             n_geo: n,
             sh_frame: shading_frame(n, dp_du),
             uv,
+            dp_du,
+            dp_dv,
         }
     }
 
@@ -564,7 +829,7 @@ impl Sphere {
         let (s, c) = (2.0 * PI * u.x).sin_cos();
         let local = Vec3::new(r * c, r * s, z);
         let p = local * self.radius + self.center;
-        let (uv, _) = self.param(p);
+        let (uv, _, _) = self.param(p);
         let n = if self.flip_normals { -local } else { local };
         let area = self.area();
         PositionSample {
@@ -590,6 +855,7 @@ impl Disk {
         }
     }
 
+    /// Position, uv and ∂p/∂u of the object-space point (x, y).
     fn at_local(&self, x: f32, y: f32) -> (Vec3, Vec2, Vec3) {
         let p = self.to_world.transform_point3(Vec3::new(x, y, 0.0));
         let r = (x * x + y * y).sqrt();
@@ -605,13 +871,20 @@ impl Disk {
     }
 
     fn surface(&self, hit: &Hit) -> SurfaceGeometry {
-        let (p, uv, dp_du) = self.at_local(hit.u, hit.v);
+        let (x, y) = (hit.u, hit.v);
+        let (p, uv, dp_du) = self.at_local(x, y);
+        // ∂p/∂v with v = φ/2π: 2π·(−y, x, 0) in object space (Mitsuba's, zero at the centre)
+        let dp_dv = self
+            .to_world
+            .transform_vector3(Vec3::new(-y, x, 0.0) * (2.0 * PI));
         let n = self.normal();
         SurfaceGeometry {
             p,
             n_geo: n,
             sh_frame: shading_frame(n, dp_du),
             uv,
+            dp_du,
+            dp_dv,
         }
     }
 
@@ -641,6 +914,115 @@ impl Disk {
     }
 }
 
+impl Cylinder {
+    fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
+        let local = self.to_object.transform_point3(ray.at(hit.t));
+        // re-project onto the surface (Mitsuba shifts p along the normal by the same amount)
+        let rxy = (local.x * local.x + local.y * local.y).sqrt();
+        let (x, y) = if rxy > 0.0 {
+            (local.x / rxy, local.y / rxy)
+        } else {
+            (1.0, 0.0)
+        };
+        let p = self.to_world.transform_point3(Vec3::new(x, y, local.z));
+        let phi = phi_positive(y, x);
+        let uv = Vec2::new(phi * INV_TWO_PI, local.z);
+        let dp_du = self
+            .to_world
+            .transform_vector3(Vec3::new(-y, x, 0.0) * (2.0 * PI));
+        let mut n = (self.nm * Vec3::new(x, y, 0.0)).normalize_or(Vec3::Z);
+        if self.flip_normals {
+            n = -n;
+        }
+        SurfaceGeometry {
+            p,
+            n_geo: n,
+            sh_frame: shading_frame(n, dp_du),
+            uv,
+            dp_du,
+            // v is the object-space height
+            dp_dv: self.to_world.transform_vector3(Vec3::Z),
+        }
+    }
+
+    fn sample_position(&self, u: Vec2) -> PositionSample {
+        let (s, c) = (2.0 * PI * u.y).sin_cos();
+        let p = self.to_world.transform_point3(Vec3::new(c, s, u.x));
+        // normalize(∂p/∂u × ∂p/∂v) = sign(det) · normalize(nm · (cos, sin, 0))
+        let mut n = (self.nm * Vec3::new(c, s, 0.0)).normalize_or(Vec3::Z) * self.det_sign;
+        if self.flip_normals {
+            n = -n;
+        }
+        PositionSample {
+            p,
+            n,
+            uv: Vec2::new(u.y, u.x),
+            pdf: if self.area > 0.0 {
+                1.0 / self.area
+            } else {
+                0.0
+            },
+        }
+    }
+
+    /// World-space bounds: the box of the two end circles.
+    fn bounds(&self) -> (Vec3, Vec3) {
+        let p0 = self.to_world.transform_point3(Vec3::ZERO);
+        let p1 = self.to_world.transform_point3(Vec3::Z);
+        let a = self.to_world.transform_vector3(Vec3::X);
+        let b = self.to_world.transform_vector3(Vec3::Y);
+        let h = (a * a + b * b).map(f32::sqrt);
+        ((p0 - h).min(p1 - h), (p0 + h).max(p1 + h))
+    }
+}
+
+impl Instance {
+    /// The group shape's surface at the hit, carried to world space.
+    fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
+        let local_ray = Ray {
+            o: self.to_object.transform_point3(ray.o),
+            d: self.to_object.transform_vector3(ray.d),
+            t_max: ray.t_max,
+        };
+        let inner = Hit {
+            t: hit.t,
+            shape: self.member,
+            prim: hit.prim,
+            u: hit.u,
+            v: hit.v,
+            vertices: None,
+        };
+        let s = self.group.shapes[self.member as usize].surface(&local_ray, &inner);
+        let n_geo = (self.nm * s.n_geo).normalize_or(s.n_geo);
+        let n = (self.nm * s.sh_frame.n).normalize_or(n_geo);
+        SurfaceGeometry {
+            p: self.to_world.transform_point3(s.p),
+            n_geo,
+            sh_frame: shading_frame(n, self.to_world.transform_vector3(s.sh_frame.s)),
+            uv: s.uv,
+            dp_du: self.to_world.transform_vector3(s.dp_du),
+            dp_dv: self.to_world.transform_vector3(s.dp_dv),
+        }
+    }
+
+    /// World-space bounds of the whole group (the transformed corners of its box).
+    fn bounds(&self) -> (Vec3, Vec3) {
+        let (lo, hi) = self.group.bounds;
+        if !(lo.cmple(hi).all()) {
+            return (lo, hi);
+        }
+        (0..8).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), i| {
+            let c = Vec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            );
+            let p = self.to_world.transform_point3(c);
+            (a.min(p), b.max(p))
+        })
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Common interface
 // ---------------------------------------------------------------------------------------------
@@ -658,6 +1040,8 @@ impl Geometry {
                 (s.center - r, s.center + r)
             }
             Geometry::Disk(d) => d.bounds(),
+            Geometry::Cylinder(c) => c.bounds(),
+            Geometry::Instance(i) => i.bounds(),
         }
     }
 
@@ -667,6 +1051,9 @@ impl Geometry {
             Geometry::Mesh(m) => m.area,
             Geometry::Sphere(s) => s.area(),
             Geometry::Disk(d) => d.area,
+            Geometry::Cylinder(c) => c.area,
+            // not sampled: instances cannot emit
+            Geometry::Instance(_) => 0.0,
         }
     }
 
@@ -678,6 +1065,17 @@ impl Geometry {
             Geometry::Mesh(m) => m.sample_position(u),
             Geometry::Sphere(s) => s.sample_position(u),
             Geometry::Disk(d) => d.sample_position(u),
+            Geometry::Cylinder(c) => c.sample_position(u),
+            // not sampled (instances cannot emit): a point of the group shape, density 0
+            Geometry::Instance(i) => {
+                let ps = i.group.shapes[i.member as usize].sample_position(u);
+                PositionSample {
+                    p: i.to_world.transform_point3(ps.p),
+                    n: (i.nm * ps.n).normalize_or(ps.n),
+                    uv: ps.uv,
+                    pdf: 0.0,
+                }
+            }
         }
     }
 
@@ -699,6 +1097,8 @@ impl Geometry {
             Geometry::Mesh(m) => m.surface(hit),
             Geometry::Sphere(s) => s.surface(ray, hit),
             Geometry::Disk(d) => d.surface(hit),
+            Geometry::Cylinder(c) => c.surface(ray, hit),
+            Geometry::Instance(i) => i.surface(ray, hit),
         }
     }
 
@@ -707,7 +1107,19 @@ impl Geometry {
     pub fn primitive_count(&self) -> usize {
         match self {
             Geometry::Mesh(m) => m.indices.len(),
-            Geometry::Sphere(_) | Geometry::Disk(_) => 1,
+            Geometry::Sphere(_) | Geometry::Disk(_) | Geometry::Cylinder(_) => 1,
+            // the instance as a whole is one primitive, held by its first slot
+            Geometry::Instance(i) => (i.member == 0) as usize,
+        }
+    }
+
+    /// The shape's per-primitive data for textures that read it (`mesh_attribute`): meshes
+    /// with attributes.
+    #[inline]
+    pub fn surface_data(&self) -> Option<&dyn SurfaceData> {
+        match self {
+            Geometry::Mesh(m) if !m.attributes.is_empty() => Some(m),
+            _ => None,
         }
     }
 
@@ -717,6 +1129,8 @@ impl Geometry {
             Geometry::Mesh(m) => m.flip_normals,
             Geometry::Sphere(s) => s.flip_normals,
             Geometry::Disk(d) => d.flip_normals,
+            Geometry::Cylinder(c) => c.flip_normals,
+            Geometry::Instance(_) => false,
         }
     }
 }
@@ -2321,6 +2735,95 @@ end_header
         },
     ];
 
+    // Generated by scripts/gen_shape_cases.py (Mitsuba 3.9.1, scalar_rgb).
+    #[rustfmt::skip]
+    mod mitsuba_cases {
+        use super::{Case, SCase};
+    pub const CYL: &[Case] = &[
+        Case { o: [-2.227051, -1.363356, 0.9], d: [1.418034, 0.775571, -0.6], t: 0.9999999, p: [-0.8090169, -0.5877855, 0.3], n: [-0.8090168, -0.5877855, 0.0], sn: [-0.8090168, -0.5877855, 0.0], ss: [0.5877855, -0.8090168, 0.0], st: [0.0, 0.0, 1.0], uv: [0.6, 0.3] },
+        Case { o: [0.0, 0.0, 0.5], d: [-0.8090168, -0.5877855, -0.2], t: 1.0, p: [-0.8090169, -0.5877855, 0.3], n: [-0.8090168, -0.5877854, 0.0], sn: [-0.8090168, -0.5877854, 0.0], ss: [0.5877854, -0.8090168, 0.0], st: [0.0, 0.0, 0.9999999], uv: [0.6, 0.3] },
+        Case { o: [1.127051, 3.25317, 1.3], d: [-0.8180339, -2.302113, -0.6], t: 1.0, p: [0.309017, 0.9510566, 0.7], n: [0.309017, 0.9510565, -0.0], sn: [0.309017, 0.9510565, -0.0], ss: [-0.9510565, 0.309017, 0.0], st: [0.0, 0.0, 1.0], uv: [0.2, 0.6999999] },
+        Case { o: [0.0, 0.0, 0.5], d: [0.309017, 0.9510565, 0.2], t: 1.0, p: [0.309017, 0.9510566, 0.7], n: [0.309017, 0.9510565, -0.0], sn: [0.309017, 0.9510565, -0.0], ss: [-0.9510565, 0.309017, 0.0], st: [0.0, 0.0, 1.0], uv: [0.2, 0.6999999] },
+        Case { o: [2.627051, -1.363356, 1.1], d: [-1.818034, 0.7755706, -0.6], t: 0.9999999, p: [0.8090171, -0.5877854, 0.5000001], n: [0.8090169, -0.5877852, 0.0], sn: [0.8090169, -0.5877852, 0.0], ss: [0.5877852, 0.8090169, 0.0], st: [-0.0, 0.0, 0.9999998], uv: [0.9, 0.5] },
+        Case { o: [0.0, 0.0, 0.5], d: [0.809017, -0.5877853, 0.0], t: 1.0, p: [0.8090171, -0.5877854, 0.5], n: [0.809017, -0.5877853, 0.0], sn: [0.809017, -0.5877853, 0.0], ss: [0.5877853, 0.809017, 0.0], st: [-0.0, 0.0, 1.0], uv: [0.9, 0.5] },
+    ];
+    pub const S_CYL: &[SCase] = &[
+        SCase { u: [0.3, 0.6], p: [-0.8090168, -0.5877855, 0.3], n: [-0.8090169, -0.5877855, 0.0], uv: [0.6, 0.3], pdf: 0.1591549 },
+        SCase { u: [0.8, 0.1], p: [0.809017, 0.5877852, 0.8], n: [0.8090171, 0.5877852, 0.0], uv: [0.1, 0.8], pdf: 0.1591549 },
+    ];
+    pub const CYL_P: &[Case] = &[
+        Case { o: [-1.165902, -0.683917, 2.571463], d: [1.188722, 0.6991336, -1.529171], t: 1.0, p: [0.02281952, 0.01521659, 1.042293], n: [-0.6943609, -0.5495668, 0.4645852], sn: [-0.6943609, -0.5495668, 0.4645852], ss: [0.5514913, -0.8211149, -0.1470633], st: [0.462299, 0.1540997, 0.8732314], uv: [0.6, 0.3] },
+        Case { o: [0.55, 0.35, 1.15], d: [-0.5271804, -0.3347834, -0.1077074], t: 0.9999999, p: [0.02281949, 0.01521654, 1.042293], n: [-0.6943608, -0.5495668, 0.4645851], sn: [-0.6943608, -0.5495668, 0.4645851], ss: [0.5514914, -0.8211148, -0.1470634], st: [0.4622989, 0.1540996, 0.8732313], uv: [0.6, 0.3] },
+        Case { o: [1.523979, 3.12812, 1.366461], d: [-0.675183, -2.254496, -0.02116859], t: 1.0, p: [0.8487958, 0.8736242, 1.345292], n: [0.2375916, 0.9272479, -0.2894158], sn: [0.2375916, 0.9272479, -0.2894158], ss: [-0.8543009, 0.341269, 0.3920529], st: [0.4622989, 0.1540997, 0.8732314], uv: [0.2, 0.7] },
+        Case { o: [0.55, 0.35, 1.15], d: [0.2987957, 0.5236239, 0.1952922], t: 1.0, p: [0.8487958, 0.8736241, 1.345292], n: [0.2375914, 0.927248, -0.2894157], sn: [0.2375914, 0.927248, -0.2894157], ss: [-0.8543009, 0.3412689, 0.392053], st: [0.462299, 0.1540997, 0.8732314], uv: [0.2, 0.7] },
+        Case { o: [2.597672, -0.7777535, 1.041425], d: [-1.678137, 0.8222028, -0.03313971], t: 1.0, p: [0.9195343, 0.04444933, 1.008285], n: [0.7390687, -0.6111013, -0.2834302], sn: [0.7390687, -0.6111013, -0.2834302], ss: [0.4899563, 0.7764075, -0.3964017], st: [0.462299, 0.1540997, 0.8732314], uv: [0.9, 0.5] },
+        Case { o: [0.55, 0.35, 1.15], d: [0.3695343, -0.3055507, -0.141715], t: 1.0, p: [0.9195343, 0.0444493, 1.008285], n: [0.7390687, -0.6111014, -0.2834302], sn: [0.7390687, -0.6111014, -0.2834302], ss: [0.4899563, 0.7764074, -0.3964017], st: [0.462299, 0.1540997, 0.8732314], uv: [0.9, 0.5] },
+    ];
+    pub const S_CYL_P: &[SCase] = &[
+        SCase { u: [0.3, 0.6], p: [0.02281957, 0.01521661, 1.042293], n: [-0.6943609, -0.5495668, 0.4645852], uv: [0.6, 0.3], pdf: 0.1635048 },
+        SCase { u: [0.8, 0.1], p: [1.167181, 0.7147833, 1.427707], n: [0.694361, 0.5495666, -0.4645852], uv: [0.1, 0.8], pdf: 0.1635048 },
+    ];
+    pub const CYL_FLIP: &[Case] = &[
+        Case { o: [0.5910857, 2.869221, 1.1], d: [-0.5128685, -2.375377, -0.6], t: 1.0, p: [0.07821715, 0.4938443, 0.5], n: [-0.1564343, -0.9876883, 0.0], sn: [-0.1564343, -0.9876883, 0.0], ss: [-0.9876883, 0.1564343, 0.0], st: [-0.0, 0.0, -0.9999999], uv: [0.6, 0.3] },
+        Case { o: [0.0, 0.0, 0.7], d: [0.07821712, 0.4938442, -0.2], t: 1.0, p: [0.07821713, 0.4938442, 0.5], n: [-0.1564343, -0.9876884, 0.0], sn: [-0.1564343, -0.9876884, 0.0], ss: [-0.9876884, 0.1564343, 0.0], st: [-0.0, 0.0, -1.0], uv: [0.6, 0.3] },
+        Case { o: [1.334976, -1.827516, 1.5], d: [-1.107981, 1.382013, -0.6], t: 1.0, p: [0.2269953, -0.4455034, 0.9], n: [-0.4539905, 0.8910065, -0.0], sn: [-0.4539905, 0.8910065, -0.0], ss: [0.8910065, 0.4539905, 0.0], st: [0.0, 0.0, -1.0], uv: [0.2, 0.6999999] },
+        Case { o: [0.0, 0.0, 0.7], d: [0.2269952, -0.4455033, 0.2], t: 1.0, p: [0.2269953, -0.4455033, 0.9], n: [-0.4539904, 0.8910065, -0.0], sn: [-0.4539904, 0.8910065, -0.0], ss: [0.8910065, 0.4539904, 0.0], st: [0.0, 0.0, -0.9999998], uv: [0.2, 0.6999999] },
+        Case { o: [-2.269221, 0.008914143, 1.3], d: [1.775377, -0.08713132, -0.6], t: 1.0, p: [-0.4938443, -0.07821721, 0.7], n: [0.9876884, 0.1564344, -0.0], sn: [0.9876884, 0.1564344, -0.0], ss: [0.1564344, -0.9876884, 0.0], st: [0.0, -0.0, -1.0], uv: [0.9, 0.5] },
+        Case { o: [0.0, 0.0, 0.7], d: [-0.4938442, -0.07821718, 0.0], t: 1.0, p: [-0.4938442, -0.07821719, 0.7], n: [0.9876884, 0.1564344, -0.0], sn: [0.9876884, 0.1564344, -0.0], ss: [0.1564344, -0.9876884, 0.0], st: [0.0, -0.0, -1.0], uv: [0.9, 0.5] },
+    ];
+    pub const S_CYL_FLIP: &[SCase] = &[
+        SCase { u: [0.3, 0.6], p: [0.07821712, 0.4938442, 0.5], n: [-0.1564343, -0.9876884, 0.0], uv: [0.6, 0.3], pdf: 0.3183099 },
+        SCase { u: [0.8, 0.1], p: [-0.07821727, -0.4938442, 1.0], n: [0.1564346, 0.9876884, -0.0], uv: [0.1, 0.8], pdf: 0.3183099 },
+    ];
+    pub const CYL_XF: &[Case] = &[
+        Case { o: [-3.036067, -1.860654, -0.0631839], d: [1.418034, 0.7046754, -0.1979311], t: 0.9999998, p: [-1.618034, -1.155979, -0.261115], n: [-0.8090169, -0.5523377, -0.2010345], sn: [-0.8090169, -0.5523377, -0.2010345], ss: [0.5877855, -0.7602272, -0.2767], st: [-1.310599e-08, -0.3420201, 0.9396927], uv: [0.6, 0.3000002] },
+        Case { o: [1.436068, 3.855096, 2.230014], d: [-0.8180339, -2.187402, -1.250561], t: 0.9999999, p: [0.6180341, 1.667695, 0.9794535], n: [0.309017, 0.8937008, 0.3252805], sn: [0.309017, 0.8937008, 0.3252805], ss: [-0.9510565, 0.290381, 0.10569], st: [1.854872e-11, -0.3420201, 0.9396927], uv: [0.2, 0.7000002] },
+        Case { o: [3.436068, -1.894855, 0.03078561], d: [-1.818034, 0.7046751, -0.1979312], t: 0.9999999, p: [1.618034, -1.19018, -0.1671456], n: [0.809017, -0.5523375, -0.2010344], sn: [0.809017, -0.5523375, -0.2010344], ss: [0.5877852, 0.7602273, 0.2767], st: [1.791199e-08, -0.3420201, 0.9396926], uv: [0.9, 0.5000001] },
+    ];
+    pub const S_CYL_XF: &[SCase] = &[
+        SCase { u: [0.3, 0.6], p: [-1.618034, -1.155978, -0.261115], n: [-0.8090168, -0.5523377, -0.2010345], uv: [0.6, 0.3], pdf: 0.1591549 },
+        SCase { u: [0.8, 0.1], p: [1.618034, 0.9678669, 0.7779458], n: [0.8090171, 0.5523375, 0.2010344], uv: [0.1, 0.8], pdf: 0.1591549 },
+    ];
+    pub const CYL_MIRROR: &[Case] = &[
+        Case { o: [1.413525, -0.4816782, 0.9], d: [-1.818034, 0.775571, -0.6], t: 0.5068316, p: [0.4920883, -0.08859434, 0.5959011], n: [0.9841769, -0.1771888, -0.0], sn: [0.9841769, -0.1771888, -0.0], ss: [-0.1771888, -0.9841769, 0.0], st: [-0.0, 0.0, -1.0], uv: [0.02835017, 0.595901] },
+        Case { o: [-0.2635255, 1.826585, 1.3], d: [0.418034, -2.302113, -0.6], t: 0.5764674, p: [-0.02254255, 0.4994918, 0.9541196], n: [-0.04508507, 0.9989832, -0.0], sn: [-0.04508507, 0.9989832, -0.0], ss: [0.9989832, 0.04508507, 0.0], st: [0.0, 0.0, -1.0], uv: [0.7428221, 0.9541194] },
+        Case { o: [-1.013525, -0.481678, 1.1], d: [1.418034, 0.7755706, -0.6], t: 0.3863399, p: [-0.4656823, -0.1820441, 0.8681961], n: [-0.9313645, -0.3640881, 0.0], sn: [-0.9313645, -0.3640881, 0.0], ss: [-0.3640881, 0.9313645, 0.0], st: [-0.0, 0.0, -0.9999999], uv: [0.4406904, 0.868196] },
+    ];
+    pub const S_CYL_MIRROR: &[SCase] = &[
+        SCase { u: [0.3, 0.6], p: [-0.4045084, 0.2938927, 0.3], n: [0.8090168, -0.5877855, 0.0], uv: [0.6, 0.3], pdf: 0.3183099 },
+        SCase { u: [0.8, 0.1], p: [0.4045085, -0.2938926, 0.8], n: [-0.8090171, 0.5877853, -0.0], uv: [0.1, 0.8], pdf: 0.3183099 },
+    ];
+    pub const INSTANCE: &[Case] = &[
+        // SmoothDiffuse
+        Case { o: [1.5, 2.5, 10.0], d: [0.01, 0.02, -1.0], t: 6.055532, p: [1.560555, 2.621111, 3.944468], n: [-0.3054701, 0.1211105, 0.9444683], sn: [-0.3054701, 0.1211105, 0.9444683], ss: [-0.3685623, -0.9296031, 0.0], st: [0.8779806, -0.3480954, 0.3286027], uv: [0.3565917, 0.1065777] },
+        // SmoothDiffuse
+        Case { o: [2.0, 4.0, 10.0], d: [-0.1, -0.1, -1.0], t: 6.824534, p: [1.317546, 3.317547, 3.175466], n: [-0.5484789, 0.8175467, 0.1754661], sn: [-0.5484789, 0.8175467, 0.1754661], ss: [-0.8304304, -0.5571224, 6.763075e-09], st: [0.09775611, -0.1457124, 0.9844855], uv: [0.2607139, 0.4438568] },
+        // SmoothConductor
+        Case { o: [-4.5, 5.0, 2.0], d: [0.0, -5.0, -2.0], t: 0.7027082, p: [-4.5, 1.486459, 0.5945837], n: [0.0, -0.6427876, 0.7660444], sn: [0.0, -0.6427876, 0.7660444], ss: [1.0, 0.0, 0.0], st: [-0.0, 0.7660444, 0.6427876], uv: [0.75, 0.8802212] },
+        // SmoothConductor
+        Case { o: [-5.3, 0.2, -6.0], d: [0.0, 0.0, 1.0], t: 5.515117, p: [-5.3, 0.2000003, -0.4848835], n: [0.0, -0.6427876, 0.7660444], sn: [0.0, -0.6427876, 0.7660444], ss: [1.0, 0.0, 0.0], st: [-0.0, 0.7660444, 0.6427876], uv: [0.3499999, 0.460383] },
+        // SmoothConductor
+        Case { o: [-4.4, 6.0, 0.1], d: [0.0, -1.0, 0.0], t: 5.102963, p: [-4.4, 0.8970373, 0.09999996], n: [0.0, -0.6427876, 0.7660444], sn: [0.0, -0.6427876, 0.7660444], ss: [1.0, 0.0, 0.0], st: [-0.0, 0.7660444, 0.6427876], uv: [0.8, 0.6878623] },
+        // SmoothDiffuse
+        Case { o: [-4.45, 0.1, 5.0], d: [0.0, 0.0, -1.0], t: 4.609482, p: [-4.45, 0.09999976, 0.3905177], n: [0.0529444, -0.5730222, 0.8178279], sn: [0.0529444, -0.5730222, 0.8178279], ss: [-0.8535301, 0.3991425, 0.3349203], st: [-0.5183467, -0.7157729, -0.4679593], uv: [0.2028509, 0.1112892] },
+    ];
+    }
+    use mitsuba_cases::*;
+
+    /// The XML of `INSTANCE` (see scripts/gen_shape_cases.py).
+    const INSTANCE_XML: &str = r#"<shape type="shapegroup" id="g">
+        <shape type="sphere"><point name="center" x="0.5" y="0" z="0"/><float name="radius" value="0.5"/>
+            <bsdf type="diffuse"/></shape>
+        <shape type="rectangle"><transform name="to_world"><translate z="-1"/></transform>
+            <bsdf type="conductor"/></shape>
+    </shape>
+    <shape type="instance"><ref id="g"/>
+        <transform name="to_world"><scale value="2"/><rotate z="1" angle="30"/><translate x="1" y="2" z="3"/></transform>
+    </shape>
+    <shape type="instance"><ref id="g"/>
+        <transform name="to_world"><scale x="1" y="2" z="0.5"/><rotate x="1" angle="40"/><translate x="-5"/></transform>
+    </shape>"#;
+
     fn tmp_file(name: &str, contents: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("specula-geometry-{}", std::process::id()));
         std::fs::create_dir_all(&d).unwrap();
@@ -2462,6 +2965,315 @@ end_header
         );
         let s = Geometry::sphere(Vec3::new(0.2, 0.1, -0.3), 0.8, Mat4::IDENTITY, false);
         check_samples("sphere", &s, S_SPHERE);
+    }
+
+    fn cyl(p0: [f32; 3], p1: [f32; 3], r: f32, m: Mat4, flip: bool) -> Geometry {
+        Geometry::cylinder(Vec3::from(p0), Vec3::from(p1), r, m, flip).unwrap()
+    }
+
+    #[test]
+    fn mitsuba_cylinder() {
+        let (o, z) = ([0.0; 3], [0.0, 0.0, 1.0]);
+        let cases: [(&str, Geometry, &[Case], &[SCase]); 5] = [
+            ("cyl", cyl(o, z, 1.0, Mat4::IDENTITY, false), CYL, S_CYL),
+            (
+                "cyl p0 p1",
+                cyl([0.1, 0.2, 0.3], [1.0, 0.5, 2.0], 0.5, Mat4::IDENTITY, false),
+                CYL_P,
+                S_CYL_P,
+            ),
+            (
+                "cyl flip",
+                cyl(o, z, 0.5, rot(z, 225.0) * tr([0.0, 0.0, 0.2]), true),
+                CYL_FLIP,
+                S_CYL_FLIP,
+            ),
+            (
+                "cyl xf",
+                cyl(
+                    o,
+                    z,
+                    1.0,
+                    rot([1.0, 0.0, 0.0], 20.0) * sc([2.0, 2.0, 0.5]),
+                    false,
+                ),
+                CYL_XF,
+                S_CYL_XF,
+            ),
+            (
+                "cyl mirror",
+                cyl(o, z, -0.5, mirror(), false),
+                CYL_MIRROR,
+                S_CYL_MIRROR,
+            ),
+        ];
+        for (name, g, c, sc) in cases {
+            check_samples(name, &g, sc);
+            check(name, g, c);
+        }
+        // bounds hold every sampled point and are tight for an axis-aligned cylinder
+        let g = cyl([0.1, 0.2, 0.3], [1.0, 0.5, 2.0], 0.5, Mat4::IDENTITY, false);
+        let (lo, hi) = g.bounds();
+        for i in 0..100 {
+            let p = g
+                .sample_position(Vec2::new(i as f32 / 100.0, (i * 37 % 100) as f32 / 100.0))
+                .p;
+            assert!(p.cmpge(lo - 1e-5).all() && p.cmple(hi + 1e-5).all());
+        }
+        let (lo, hi) = cyl(o, z, 2.0, Mat4::IDENTITY, false).bounds();
+        assert_eq!(
+            (lo, hi),
+            (Vec3::new(-2.0, -2.0, 0.0), Vec3::new(2.0, 2.0, 1.0))
+        );
+        // open: a ray along the axis passes through
+        let g = cyl(o, z, 1.0, Mat4::IDENTITY, false);
+        let bvh = Bvh::build(std::slice::from_ref(&g));
+        assert!(bvh
+            .intersect(&Ray::new(Vec3::new(0.2, 0.0, -3.0), Vec3::Z))
+            .is_none());
+        // ...and one that misses the finite length
+        assert!(bvh
+            .intersect(&Ray::new(Vec3::new(3.0, 0.0, 1.5), -Vec3::X))
+            .is_none());
+        for (p0, p1, r) in [
+            (o, o, 1.0),
+            (o, z, 0.0),
+            (o, z, f32::NAN),
+            (o, [f32::INFINITY, 0.0, 0.0], 1.0),
+        ] {
+            assert!(
+                Geometry::cylinder(Vec3::from(p0), Vec3::from(p1), r, Mat4::IDENTITY, false)
+                    .is_err()
+            );
+        }
+        assert!(Geometry::cylinder(Vec3::ZERO, Vec3::Z, 1.0, sc([1.0, 0.0, 1.0]), false).is_err());
+    }
+
+    #[test]
+    fn mitsuba_instances() {
+        use crate::scene::Scene;
+        let text = format!(
+            r#"<scene version="3.0.0">
+    <sensor type="perspective"><float name="fov" value="40"/>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
+    </sensor>
+    {INSTANCE_XML}
+</scene>"#
+        );
+        let scene = Scene::from_xml_str(&text, "<test>", std::path::Path::new("."), &[]).unwrap();
+        // two instances of two shapes: four slots, one BVH primitive per instance
+        assert_eq!(scene.geometry.len(), 4);
+        assert_eq!(scene.accel.primitive_count(), 2);
+        let bsdf_names: Vec<String> = scene.bsdfs.iter().map(|b| format!("{b:?}")).collect();
+        for (i, c) in INSTANCE.iter().enumerate() {
+            let ray = Ray::new(Vec3::from(c.o), Vec3::from(c.d));
+            let hit = scene
+                .intersect(&ray)
+                .unwrap_or_else(|| panic!("instance case {i}: no hit"));
+            assert!(
+                (hit.t - c.t).abs() <= 1e-4 * c.t.max(1.0),
+                "case {i}: t {} vs {}",
+                hit.t,
+                c.t
+            );
+            let sg = scene.geometry[hit.shape as usize].surface(&ray, &hit);
+            close3("p", "instance", i, sg.p, c.p);
+            close3("n", "instance", i, sg.n_geo, c.n);
+            close3("sh_frame.n", "instance", i, sg.sh_frame.n, c.sn);
+            close3("sh_frame.s", "instance", i, sg.sh_frame.s, c.ss);
+            close3("sh_frame.t", "instance", i, sg.sh_frame.t, c.st);
+            assert!(
+                (sg.uv - Vec2::from(c.uv)).abs().max_element() < 1e-4,
+                "case {i}: uv {}",
+                sg.uv
+            );
+            // the BSDF of the group shape hit: the sphere's diffuse, the rectangle's conductor
+            let want = if matches!(i, 0 | 1 | 5) {
+                "Diffuse"
+            } else {
+                "Conductor"
+            };
+            let got = &bsdf_names[scene.shape_bsdf[hit.shape as usize] as usize];
+            assert!(got.starts_with(want), "case {i}: bsdf {got}");
+            assert!(scene.shape_light[hit.shape as usize].is_none());
+            // shadow rays: blocked up to the hit, free before it
+            assert!(scene.occluded(&ray));
+            assert!(!scene.occluded(&Ray {
+                t_max: hit.t * 0.999,
+                ..ray
+            }));
+        }
+        // a ray between the instances hits nothing
+        assert!(scene
+            .intersect(&Ray::new(Vec3::new(-2.0, 0.0, 10.0), -Vec3::Z))
+            .is_none());
+    }
+
+    /// 10⁴ instances of a 10⁴-triangle mesh: one group, shared. The scene BVH holds one
+    /// primitive per instance and no triangle; every slot shares the group's mesh and BVH.
+    /// (Memory, measured with `scripts/gen_instances_scene.py` and `/usr/bin/time -v`: see the
+    /// README.)
+    #[test]
+    fn ten_thousand_instances_share_one_group() {
+        // a 100 × 50 height field: 10⁴ triangles
+        let (nx, ny) = (101u32, 51u32);
+        let positions = (0..ny)
+            .flat_map(|j| (0..nx).map(move |i| (i, j)))
+            .map(|(i, j)| {
+                let (x, y) = (i as f32 / 100.0, j as f32 / 50.0);
+                Vec3::new(x, y, 0.05 * (9.0 * x).sin() * (7.0 * y).cos())
+            })
+            .collect();
+        let indices = (0..ny - 1)
+            .flat_map(|j| (0..nx - 1).map(move |i| (i, j)))
+            .flat_map(|(i, j)| {
+                let a = j * nx + i;
+                [[a, a + 1, a + nx], [a + 1, a + nx + 1, a + nx]]
+            })
+            .collect::<Vec<_>>();
+        assert_eq!(indices.len(), 10_000);
+        let data = MeshData {
+            positions,
+            normals: None,
+            uvs: None,
+            indices,
+            attributes: vec![],
+        };
+        let mesh = Geometry::mesh(data, Mat4::IDENTITY, false, false).unwrap();
+        let group = Arc::new(ShapeGroup::new(vec![mesh], vec![0]));
+        let mut shapes = Vec::new();
+        for k in 0..10_000 {
+            let (i, j) = ((k % 100) as f32, (k / 100) as f32);
+            let m = tr([2.0 * i, 2.0 * j, 0.0]) * rot([0.0, 0.0, 1.0], k as f32);
+            shapes.extend(Geometry::instance(&group, m).unwrap());
+        }
+        let bvh = Bvh::build(&shapes);
+        assert_eq!(shapes.len(), 10_000);
+        assert_eq!(bvh.primitive_count(), 10_000);
+        // the slots and the scene BVH hold the only other references to the group
+        assert_eq!(Arc::strong_count(&group), 1 + 10_000 + 1);
+        // rays straight down onto every 97th instance hit it, at its own slot
+        for k in (0..10_000).step_by(97) {
+            let (i, j) = ((k % 100) as f32, (k / 100) as f32);
+            let m = tr([2.0 * i, 2.0 * j, 0.0]) * rot([0.0, 0.0, 1.0], k as f32);
+            let c = m.transform_point3(Vec3::new(0.5, 0.5, 0.0));
+            let ray = Ray::new(c + Vec3::new(0.0, 0.0, 5.0), -Vec3::Z);
+            let hit = bvh.intersect(&ray).expect("instance hit");
+            assert_eq!(hit.shape, k);
+            let sg = shapes[k as usize].surface(&ray, &hit);
+            assert!((sg.p - c).truncate().length() < 1e-3 && sg.n_geo.z > 0.9);
+            assert!(bvh.occluded(&ray));
+        }
+    }
+
+    /// Mitsuba 3.9 merges the three diffuse meshes (two cubes and the rectangle: 26
+    /// triangles) and keeps the conductor cube, the emitting cube and the sphere apart: 4
+    /// shapes (checked with `mi.load_string` of the same shapes). The
+    /// image is that of the unmerged scene: every ray hits the same point with the same
+    /// normals and BSDF.
+    #[test]
+    fn merge_like_mitsuba() {
+        use crate::scene::{Light, Scene};
+        let shapes = r#"
+ <shape type="cube"><transform name="to_world"><translate x="3"/></transform><ref id="b"/></shape>
+ <shape type="cube"><transform name="to_world"><translate x="-3"/></transform><ref id="b"/></shape>
+ <shape type="cube"><transform name="to_world"><translate y="3"/></transform><bsdf type="conductor"/></shape>
+ <shape type="sphere"><ref id="b"/></shape>
+ <shape type="rectangle"><transform name="to_world"><translate z="5"/></transform><ref id="b"/></shape>
+ <shape type="cube"><transform name="to_world"><translate z="-3"/></transform><emitter type="area"/></shape>"#;
+        let scene = |body: &str| {
+            let text = format!(
+                r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/></sensor>
+<bsdf type="diffuse" id="b"/>{body}</scene>"#
+            );
+            Scene::from_xml_str(&text, "<t>", std::path::Path::new("."), &[]).unwrap()
+        };
+        let merged = scene(&format!(r#"<shape type="merge">{shapes}</shape>"#));
+        let plain = scene(shapes);
+        let counts: Vec<usize> = merged
+            .geometry
+            .iter()
+            .map(Geometry::primitive_count)
+            .collect();
+        assert_eq!(counts, [1, 12, 26, 12]);
+        assert_eq!(merged.lights.len(), 1);
+        let Light::Area { shape, .. } = &merged.lights[0] else {
+            panic!()
+        };
+        assert_eq!(merged.shape_light[*shape as usize], Some(0));
+        assert_eq!(merged.geometry[*shape as usize].area(), 24.0);
+        let mut rng = 1u64;
+        let mut hits = 0;
+        for _ in 0..2000 {
+            let o = Vec3::new(lcg(&mut rng), lcg(&mut rng), lcg(&mut rng)) * 16.0 - 8.0;
+            let d = Vec3::new(lcg(&mut rng), lcg(&mut rng), lcg(&mut rng)) * 8.0 - 4.0 - o;
+            let ray = Ray::new(o, d);
+            let (a, b) = (merged.intersect(&ray), plain.intersect(&ray));
+            assert_eq!(a.is_some(), b.is_some());
+            let (Some(a), Some(b)) = (a, b) else { continue };
+            hits += 1;
+            assert_eq!(a.t, b.t);
+            let sa = merged.geometry[a.shape as usize].surface(&ray, &a);
+            let sb = plain.geometry[b.shape as usize].surface(&ray, &b);
+            assert_eq!(
+                (sa.p, sa.n_geo, sa.sh_frame.n, sa.uv),
+                (sb.p, sb.n_geo, sb.sh_frame.n, sb.uv)
+            );
+            let name = |s: &Scene, h: &Hit| {
+                format!("{:?}", s.bsdfs[s.shape_bsdf[h.shape as usize] as usize])
+            };
+            assert_eq!(name(&merged, &a), name(&plain, &b));
+            assert_eq!(
+                merged.shape_light[a.shape as usize].is_some(),
+                plain.shape_light[b.shape as usize].is_some()
+            );
+        }
+        assert!(hits > 500, "{hits}");
+    }
+
+    #[test]
+    fn shapegroup_errors_are_mitsubas() {
+        use crate::scene::Scene;
+        let load = |body: &str| {
+            let text = format!(
+                "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/></sensor>\n<shape type=\"sphere\"/>\n{body}</scene>"
+            );
+            Scene::from_xml_str(&text, "<t>", std::path::Path::new("."), &[])
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default()
+        };
+        let g = r#"<shape type="shapegroup" id="g"><shape type="sphere"/></shape>"#;
+        for (body, want) in [
+            (
+                r#"<shape type="shapegroup" id="g"><shape type="sphere"><emitter type="area"/></shape></shape>"#.to_string(),
+                "<t>:4:",
+            ),
+            (r#"<shape type="shapegroup" id="g"><shape type="sphere"><emitter type="area"/></shape></shape>"#.into(), "Instancing of emitters is not supported"),
+            (r#"<shape type="shapegroup" id="g"><shape type="shapegroup" id="h"/></shape>"#.into(), "Nested ShapeGroup is not permitted"),
+            (format!(r#"{g}<shape type="shapegroup" id="h"><shape type="instance"><ref id="g"/></shape></shape>"#), "Nested instancing is not permitted"),
+            (r#"<shape type="shapegroup" id="g"><bsdf type="diffuse"/></shape>"#.into(), "cannot be nested in a shapegroup"),
+            (r#"<shape type="instance"/>"#.into(), "A reference to a 'shapegroup' must be specified"),
+            (r#"<bsdf type="diffuse" id="b"/><shape type="instance"><ref id="b"/></shape>"#.into(), "is a bsdf, not a shapegroup"),
+            (r#"<shape type="instance"><ref id="nope"/></shape>"#.into(), "undefined id 'nope'"),
+            (format!(r#"{g}<shape type="instance"><ref id="g"/><bsdf type="diffuse"/></shape>"#), "Only a shapegroup can be specified"),
+            (format!(r#"{g}<shape type="instance"><ref id="g"/><boolean name="flip_normals" value="true"/></shape>"#), "unknown parameter 'flip_normals'"),
+            (r#"<shape type="shapegroup" id="g"><shape type="sphere"/><transform name="to_world"/></shape>"#.into(), "unknown parameter 'to_world'"),
+            (format!(r#"{g}<shape type="instance"><ref id="g"/><transform name="to_world"><scale x="0"/></transform></shape>"#), "not invertible"),
+            (r#"<shape type="cylinder"><point name="p1" x="0" y="0" z="0"/></shape>"#.into(), "must be distinct"),
+            (r#"<shape type="cylinder"><float name="height" value="2"/></shape>"#.into(), "unknown parameter 'height'"),
+        ] {
+            let e = load(&body);
+            assert!(e.contains(want), "{body}: {e:?} lacks {want:?}");
+        }
+        // an empty group and an unused group are fine (as in Mitsuba)
+        assert_eq!(
+            load(
+                r#"<shape type="shapegroup" id="g"/><shape type="instance"><ref id="g"/></shape>"#
+            ),
+            ""
+        );
+        assert_eq!(load(g), "");
     }
 
     #[test]
@@ -2644,6 +3456,7 @@ end_header
             normals: None,
             uvs: None,
             indices: vec![[0, 1, 2], [3, 4, 5]],
+            attributes: Vec::new(),
         };
         let g = Geometry::mesh(data, Mat4::IDENTITY, false, false).unwrap();
         assert!((g.area() - 4.0).abs() < 1e-6);
@@ -2671,6 +3484,7 @@ end_header
             normals: None,
             uvs: None,
             indices: vec![[0, 1, 3]],
+            attributes: Vec::new(),
         };
         let e = Geometry::mesh(data.clone(), Mat4::IDENTITY, false, false).unwrap_err();
         assert!(e.to_string().contains("vertex 3"), "{e}");

@@ -240,6 +240,55 @@ pub fn write_exr(path: &Path, width: usize, height: usize, rgb: &[f32]) -> Resul
     .map_err(|e| SceneError::file(path, format!("cannot write OpenEXR image: {e}")))
 }
 
+/// Writes float32 OpenEXR with R, G, B and `extra` channels (name, `width·height` values
+/// each), as Mitsuba's `hdrfilm` writes an AOV integrator's output (OpenEXR stores channels
+/// sorted by name).
+pub fn write_exr_with_channels(
+    path: &Path,
+    width: usize,
+    height: usize,
+    rgb: &[f32],
+    extra: &[(String, Vec<f32>)],
+) -> Result<()> {
+    use exr::prelude::*;
+    check_len(path, width, height, rgb)?;
+    let n = width * height;
+    let mut list: Vec<AnyChannel<FlatSamples>> = ["R", "G", "B"]
+        .iter()
+        .enumerate()
+        .map(|(c, name)| {
+            let plane = rgb.iter().skip(c).step_by(3).copied().collect();
+            AnyChannel::new(*name, FlatSamples::F32(plane))
+        })
+        .collect();
+    for (name, values) in extra {
+        if values.len() != n || ["R", "G", "B"].contains(&name.as_str()) {
+            return Err(SceneError::file(
+                path,
+                format!(
+                    "channel '{name}': bad name or {} values for {n} pixels",
+                    values.len()
+                ),
+            ));
+        }
+        list.push(AnyChannel::new(
+            name.as_str(),
+            FlatSamples::F32(values.clone()),
+        ));
+    }
+    let channels = AnyChannels::sort(list.into_iter().collect());
+    let layer = Layer::new(
+        (width, height),
+        LayerAttributes::default(),
+        Encoding::FAST_LOSSLESS,
+        channels,
+    );
+    Image::from_layer(layer)
+        .write()
+        .to_file(path)
+        .map_err(|e| SceneError::file(path, format!("cannot write OpenEXR image: {e}")))
+}
+
 /// Encodes linear RGB as 8-bit sRGB: the sRGB curve, clamped to [0, 1], rounded (NaN → 0).
 #[inline]
 pub fn linear_to_srgb8(v: f32) -> u8 {
@@ -330,6 +379,34 @@ mod tests {
         assert_eq!(img.data, rgb);
         let i = (2 * w + 3) * 3;
         assert_eq!(img.rgb(3, 2), [rgb[i], rgb[i + 1], rgb[i + 2]]);
+    }
+
+    #[test]
+    fn exr_with_extra_channels() {
+        let (w, h) = (4, 3);
+        let rgb = ramp(w, h);
+        let depth: Vec<f32> = (0..w * h).map(|i| i as f32 * 0.5).collect();
+        let p = tmp("aov.exr");
+        write_exr_with_channels(&p, w, h, &rgb, &[("depth.y.T".into(), depth.clone())]).unwrap();
+        let img = exr::prelude::read_first_flat_layer_from_file(&p.0).unwrap();
+        let names: Vec<String> = img
+            .layer_data
+            .channel_data
+            .list
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect();
+        assert_eq!(names, ["B", "G", "R", "depth.y.T"]);
+        let d: Vec<f32> = img.layer_data.channel_data.list[3]
+            .sample_data
+            .values_as_f32()
+            .collect();
+        assert_eq!(d, depth);
+        let (back, _) = read_image(&p).unwrap();
+        assert_eq!(back.data, rgb);
+        assert!(
+            write_exr_with_channels(&p, w, h, &rgb, &[("R".into(), vec![0.0; w * h])]).is_err()
+        );
     }
 
     #[test]

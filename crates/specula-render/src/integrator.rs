@@ -1,14 +1,38 @@
-//! Unidirectional path tracing with next-event estimation and multiple importance sampling
-//! (power heuristic), following the structure and depth semantics of Mitsuba 3's `path`
-//! integrator: `max_depth` counts path segments (1 = only directly visible emitters, 2 =
-//! direct lighting, −1 = unbounded) and Russian roulette starts at `rr_depth`.
+//! Integrators, as Mitsuba 3 names them:
+//!
+//! - `path` ([`PathSettings`]): unidirectional path tracing with next-event estimation and
+//!   multiple importance sampling (power heuristic), following the structure and depth
+//!   semantics of Mitsuba 3's `path` integrator: `max_depth` (−1) counts path segments (1 =
+//!   only directly visible emitters, 2 = direct lighting, −1 = unbounded), Russian roulette
+//!   starts at `rr_depth` (5), `hide_emitters` (false) hides directly visible emitters.
+//! - `direct` ([`DirectSettings`]): direct illumination only, with `emitter_samples` emitter
+//!   samples and `bsdf_samples` BSDF samples per shading point (both default to
+//!   `shading_samples`, 1), combined by the power heuristic weighted by the two sample counts
+//!   as in Mitsuba's `direct`; `hide_emitters` (false). Deviation: a delta light's
+//!   emitter samples are averaged (Mitsuba adds each with weight 1 whatever `emitter_samples`).
+//! - `depth`: the distance along the camera ray to the first hit (0 where nothing is hit), in
+//!   all three channels; `hide_emitters` is accepted and has no effect.
+//! - `aov` ([`AovSettings`]): arbitrary output variables of the first hit, listed in `aovs`
+//!   ("name:type, …"; types: `depth`, `position`, `uv`, `geo_normal`, `sh_normal`,
+//!   `prim_index`, `shape_index`) written as extra channels named as Mitsuba names them
+//!   (`name.T`; `name.X/Y/Z`; `name.U/V`; `name.I`), and nested integrators, each written as
+//!   `name.R/G/B/A`; the image (R, G, B) is the first nested integrator's (black without one).
+//!   Misses give 0; `shape_index` counts shapes from 1 in the order the scene declares them
+//!   (as Mitsuba's scalar variants print it). Not supported (an error names them): `albedo`,
+//!   `dp_du`, `dp_dv`, `duv_dx`, `duv_dy`.
+//!
+//! Every integrator draws its random numbers from a [`Sampler`] in an order that depends only
+//! on the path's structure (the same dimensions at the same bounce, whatever the material), so
+//! that stratified samplers stay stratified dimension by dimension.
 
-use crate::core::{Hit, Ray, SurfaceGeometry};
+use crate::core::{Hit, Ray, Result, SceneError, SurfaceGeometry};
 use crate::geometry::Geometry;
+use crate::sampler::Sampler;
+pub use crate::scene::PathSettings;
 use crate::scene::{Light, Scene};
+use crate::xml::Node;
 use glam::{Vec2, Vec3};
-use specula_bsdf::rng::Pcg32;
-use specula_bsdf::{BsdfContext, BsdfModel, Rgb, ShadingPoint};
+use specula_bsdf::{BsdfContext, BsdfModel, Rgb};
 
 use crate::accel::{offset_ray_origin, SHADOW_EPSILON};
 
@@ -99,12 +123,16 @@ impl Scene {
         g.pdf_position() * dist2 / cos_l * self.light_select_pdf()
     }
 
-    fn sample_light(&self, x: Vec3, u_sel: f32, u: Vec2) -> Option<LightSample> {
+    /// Samples a light, then a direction towards it, from one 2D sample: `u.x` picks the
+    /// light and is rescaled to \[0, 1) for the direction (Mitsuba's sample reuse, which keeps
+    /// the 2D sample stratified over each light).
+    fn sample_light(&self, x: Vec3, mut u: Vec2) -> Option<LightSample> {
         let n = self.lights.len();
         if n == 0 {
             return None;
         }
-        let idx = ((u_sel * n as f32) as usize).min(n - 1);
+        let idx = ((u.x * n as f32) as usize).min(n - 1);
+        u.x = (u.x * n as f32 - idx as f32).clamp(0.0, crate::sampler::ONE_MINUS_EPS);
         let sel = self.light_select_pdf();
         match &self.lights[idx] {
             Light::Area { shape, radiance } => {
@@ -135,7 +163,7 @@ impl Scene {
                     return Some(LightSample {
                         wi,
                         dist: t as f32,
-                        weight: *radiance / pdf,
+                        weight: radiance.eval_along(g, x, wi, t as f32) / pdf,
                         pdf,
                         is_delta: false,
                     });
@@ -157,7 +185,7 @@ impl Scene {
                 Some(LightSample {
                     wi,
                     dist,
-                    weight: *radiance / pdf,
+                    weight: radiance.eval(ps.uv, ps.p) / pdf,
                     pdf,
                     is_delta: false,
                 })
@@ -179,22 +207,58 @@ impl Scene {
         }
     }
 
-    /// Radiance carried along `ray` from the camera (one path sample).
-    pub fn li(&self, ray: Ray, rng: &mut Pcg32, counters: &mut Counters) -> Rgb {
+    /// Radiance carried along `ray` from the camera (one sample of the scene's integrator;
+    /// AOV channels are dropped).
+    pub fn li<S: Sampler>(&self, ray: Ray, rng: &mut S, counters: &mut Counters) -> Rgb {
         let hit = self.intersect(&ray);
         self.li_from(ray, hit, rng, counters)
     }
 
     /// [`Scene::li`] with the camera ray's intersection already found (`hit`, as
     /// `intersect(&ray)` returns it).
-    pub fn li_from(
+    pub fn li_from<S: Sampler>(
         &self,
-        mut ray: Ray,
+        ray: Ray,
         hit: Option<Hit>,
-        rng: &mut Pcg32,
+        rng: &mut S,
         counters: &mut Counters,
     ) -> Rgb {
-        let settings = self.integrator;
+        self.sample(&self.integrator, ray, hit, rng, counters, &mut [])
+    }
+
+    /// One sample of `integrator` along the camera ray `ray` (whose intersection is `hit`):
+    /// the radiance, and the AOV channels written into `aovs` (as many as
+    /// [`Integrator::aov_channels`] names; extra space is left alone).
+    pub fn sample<S: Sampler>(
+        &self,
+        integrator: &Integrator,
+        ray: Ray,
+        hit: Option<Hit>,
+        rng: &mut S,
+        counters: &mut Counters,
+        aovs: &mut [f32],
+    ) -> Rgb {
+        match integrator {
+            Integrator::Path(p) => self.li_path(p, ray, hit, rng, counters),
+            Integrator::Volpath(p) => self.li_volpath(p, ray, hit, rng, counters),
+            Integrator::Direct(d) => self.li_direct(d, ray, hit, rng, counters),
+            Integrator::Depth => {
+                counters.rays += 1;
+                Rgb::splat(hit.map_or(0.0, |h| h.t))
+            }
+            Integrator::Aov(a) => self.li_aov(a, ray, hit, rng, counters, aovs),
+        }
+    }
+
+    /// Mitsuba's `path` integrator.
+    pub fn li_path<S: Sampler>(
+        &self,
+        settings: &PathSettings,
+        mut ray: Ray,
+        hit: Option<Hit>,
+        rng: &mut S,
+        counters: &mut Counters,
+    ) -> Rgb {
         let ctx = BsdfContext::RADIANCE;
         let mut result = Rgb::ZERO;
         let mut throughput = Rgb::ONE;
@@ -253,7 +317,7 @@ impl Scene {
                                 self.area_light_pdf(hit.shape, prev_p, si.p, si.n_geo),
                             )
                         };
-                        result += throughput * *radiance * w;
+                        result += throughput * radiance.eval(si.uv, si.p) * w;
                     }
                 }
             }
@@ -262,14 +326,13 @@ impl Scene {
                 break;
             }
             let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-            let sp = ShadingPoint { uv: si.uv, p: si.p };
+            let sp = si.shading_point(&hit, self.geometry[shape].surface_data());
             let flags = bsdf.flags();
 
             // next-event estimation
             if flags.intersects(specula_bsdf::LobeFlags::SMOOTH) {
-                let u_sel = rng.next_f32();
-                let u = rng.next_vec2();
-                if let Some(ls) = self.sample_light(si.p, u_sel, u) {
+                let u = rng.next_2d();
+                if let Some(ls) = self.sample_light(si.p, u) {
                     let wo = si.sh_frame.to_local(ls.wi);
                     let (f, bsdf_pdf) = bsdf.eval_pdf(&ctx, &sp, wi, wo);
                     if !f.is_black() {
@@ -292,13 +355,12 @@ impl Scene {
                 }
             } else {
                 // keep the random sequence aligned regardless of the material
-                rng.next_f32();
-                rng.next_vec2();
+                rng.next_2d();
             }
 
             // BSDF sampling
-            let u1 = rng.next_f32();
-            let u2 = rng.next_vec2();
+            let u1 = rng.next_1d();
+            let u2 = rng.next_2d();
             let Some(bs) = bsdf.sample(&ctx, &sp, wi, u1, u2) else {
                 break;
             };
@@ -321,7 +383,7 @@ impl Scene {
             }
             if depth >= settings.rr_depth {
                 let q = (tmax * eta * eta).min(0.95);
-                if rng.next_f32() >= q {
+                if rng.next_1d() >= q {
                     break;
                 }
                 throughput /= q;
@@ -330,5 +392,601 @@ impl Scene {
             next = self.intersect(&ray);
         }
         result
+    }
+}
+
+/// A scene's `<integrator>`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Integrator {
+    Path(PathSettings),
+    /// Mitsuba's `volpath` (participating media; see [`crate::volpath`]).
+    Volpath(PathSettings),
+    Direct(DirectSettings),
+    Depth,
+    Aov(AovSettings),
+}
+
+impl Default for Integrator {
+    /// What a scene without `<integrator>` uses: Mitsuba's default `path`.
+    fn default() -> Self {
+        Integrator::Path(PathSettings {
+            max_depth: -1,
+            rr_depth: 5,
+            hide_emitters: false,
+        })
+    }
+}
+
+/// Settings of Mitsuba's `direct` integrator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DirectSettings {
+    pub emitter_samples: u32,
+    pub bsdf_samples: u32,
+    pub hide_emitters: bool,
+}
+
+/// What an AOV records (Mitsuba's AOV types that Specula supports).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AovType {
+    Depth,
+    Position,
+    Uv,
+    GeoNormal,
+    ShNormal,
+    PrimIndex,
+    ShapeIndex,
+}
+
+impl AovType {
+    fn parse(s: &str) -> Option<Self> {
+        Some(match s {
+            "depth" => AovType::Depth,
+            "position" => AovType::Position,
+            "uv" => AovType::Uv,
+            "geo_normal" => AovType::GeoNormal,
+            "sh_normal" => AovType::ShNormal,
+            "prim_index" => AovType::PrimIndex,
+            "shape_index" => AovType::ShapeIndex,
+            _ => return None,
+        })
+    }
+    /// Channel suffixes, as Mitsuba names them.
+    fn suffixes(self) -> &'static [&'static str] {
+        match self {
+            AovType::Depth => &["T"],
+            AovType::Position | AovType::GeoNormal | AovType::ShNormal => &["X", "Y", "Z"],
+            AovType::Uv => &["U", "V"],
+            AovType::PrimIndex | AovType::ShapeIndex => &["I"],
+        }
+    }
+}
+
+/// Settings of Mitsuba's `aov` integrator.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AovSettings {
+    /// (name, type) in the order of the `aovs` string.
+    pub aovs: Vec<(String, AovType)>,
+    /// Nested integrators with their `name`s.
+    pub integrators: Vec<(String, Integrator)>,
+}
+
+impl Integrator {
+    /// Names of the channels this integrator writes besides R, G, B, in order (Mitsuba's
+    /// order: the nested integrators' R, G, B, A first, then the AOVs).
+    pub fn aov_channels(&self) -> Vec<String> {
+        let Integrator::Aov(a) = self else {
+            return vec![];
+        };
+        let mut out = vec![];
+        for (name, _) in &a.integrators {
+            for c in ["R", "G", "B", "A"] {
+                out.push(format!("{name}.{c}"));
+            }
+        }
+        for (name, t) in &a.aovs {
+            for c in t.suffixes() {
+                out.push(format!("{name}.{c}"));
+            }
+        }
+        out
+    }
+
+    /// Builds an `<integrator>` node (and its nested integrators).
+    pub fn from_node(n: &Node) -> Result<Integrator> {
+        let hide = |n: &Node| n.bool("hide_emitters", false);
+        let i = match n.plugin_type.as_str() {
+            "path" => {
+                let s = PathSettings {
+                    max_depth: n.int("max_depth", -1)? as i32,
+                    rr_depth: n.int("rr_depth", 5)? as i32,
+                    hide_emitters: hide(n)?,
+                };
+                if s.max_depth < -1 || s.rr_depth <= 0 {
+                    return Err(SceneError::new(
+                        Some(n.loc.clone()),
+                        "max_depth must be ≥ −1 and rr_depth ≥ 1",
+                    ));
+                }
+                n.check_unused(&["max_depth", "rr_depth", "hide_emitters"])?;
+                Integrator::Path(s)
+            }
+            "direct" => {
+                let count = |name: &str, default: i64| -> Result<u32> {
+                    let v = n.int(name, default)?;
+                    if !(0..=1 << 16).contains(&v) {
+                        return Err(SceneError::new(
+                            Some(n.loc.clone()),
+                            format!("{name} must lie in [0, 65536], got {v}"),
+                        ));
+                    }
+                    Ok(v as u32)
+                };
+                if n.has("shading_samples") && (n.has("emitter_samples") || n.has("bsdf_samples")) {
+                    return Err(SceneError::new(
+                        Some(n.loc.clone()),
+                        "give either shading_samples or emitter_samples/bsdf_samples, not both",
+                    ));
+                }
+                let shading = count("shading_samples", 1)?;
+                let s = DirectSettings {
+                    emitter_samples: count("emitter_samples", shading as i64)?,
+                    bsdf_samples: count("bsdf_samples", shading as i64)?,
+                    hide_emitters: hide(n)?,
+                };
+                if s.emitter_samples + s.bsdf_samples == 0 {
+                    return Err(SceneError::new(
+                        Some(n.loc.clone()),
+                        "the direct integrator needs at least one emitter or BSDF sample",
+                    ));
+                }
+                n.check_unused(&[
+                    "shading_samples",
+                    "emitter_samples",
+                    "bsdf_samples",
+                    "hide_emitters",
+                ])?;
+                Integrator::Direct(s)
+            }
+            "depth" => {
+                hide(n)?;
+                n.check_unused(&["hide_emitters"])?;
+                Integrator::Depth
+            }
+            "aov" => {
+                let list = n.string("aovs", "")?;
+                let mut aovs = vec![];
+                for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+                    let Some((name, ty)) = item.split_once(':') else {
+                        return Err(SceneError::new(
+                            Some(n.loc.clone()),
+                            format!("aovs: '{item}' is not of the form name:type"),
+                        ));
+                    };
+                    let (name, ty) = (name.trim(), ty.trim());
+                    let t = AovType::parse(ty).ok_or_else(|| {
+                        let known =
+                            "depth, position, uv, geo_normal, sh_normal, prim_index, shape_index";
+                        let msg = if ["albedo", "dp_du", "dp_dv", "duv_dx", "duv_dy"].contains(&ty)
+                        {
+                            format!("AOV type '{ty}' is not supported yet (supported: {known})")
+                        } else {
+                            format!("invalid AOV type '{ty}' (supported: {known})")
+                        };
+                        SceneError::new(Some(n.loc.clone()), msg)
+                    })?;
+                    if name.is_empty() {
+                        return Err(SceneError::new(
+                            Some(n.loc.clone()),
+                            format!("aovs: '{item}' has an empty name"),
+                        ));
+                    }
+                    aovs.push((name.to_string(), t));
+                }
+                let mut integrators = vec![];
+                for c in &n.children {
+                    if c.tag != "integrator" {
+                        return Err(SceneError::new(
+                            Some(c.loc.clone()),
+                            format!("<{}> cannot be nested in an integrator", c.tag),
+                        ));
+                    }
+                    let inner = Integrator::from_node(c)?;
+                    if matches!(inner, Integrator::Aov(_)) {
+                        return Err(SceneError::new(
+                            Some(c.loc.clone()),
+                            "an aov integrator cannot be nested in another",
+                        ));
+                    }
+                    let name = c
+                        .name
+                        .clone()
+                        .unwrap_or_else(|| format!("integrator_{}", integrators.len()));
+                    integrators.push((name, inner));
+                }
+                n.check_unused(&["aovs"])?;
+                Integrator::Aov(AovSettings { aovs, integrators })
+            }
+            other => {
+                return Err(SceneError::new(
+                    Some(n.loc.clone()),
+                    format!(
+                    "integrator '{other}' is not supported (supported: path, direct, depth, aov)"
+                ),
+                ))
+            }
+        };
+        if !matches!(i, Integrator::Aov(_)) {
+            if let Some(c) = n.children.first() {
+                return Err(SceneError::new(
+                    Some(c.loc.clone()),
+                    format!(
+                        "<{}> cannot be nested in a '{}' integrator",
+                        c.tag, n.plugin_type
+                    ),
+                ));
+            }
+        }
+        Ok(i)
+    }
+}
+
+impl Scene {
+    /// Radiance of infinitely distant lights seen along `d`, each weighted against BSDF
+    /// sampling (`bsdf_pdf`, already scaled) by the power heuristic; `None` weights by 1.
+    fn infinite_radiance(&self, d: Vec3, bsdf_pdf: Option<f32>, light_frac: f32) -> Rgb {
+        let mut out = Rgb::ZERO;
+        for &li in &self.infinite_lights {
+            if let Light::Other(e) = &self.lights[li as usize] {
+                let le = e.eval_direction(d);
+                if le.is_black() {
+                    continue;
+                }
+                let w = match bsdf_pdf {
+                    None => 1.0,
+                    Some(p) => mis(p, e.pdf_direction(d) * self.light_select_pdf() * light_frac),
+                };
+                out += le * w;
+            }
+        }
+        out
+    }
+
+    /// Radiance an area light on the hit shape emits towards the previous vertex (`wi` local
+    /// to the hit's shading frame, pointing back along the ray), or `None` when the shape does
+    /// not emit towards it.
+    fn area_emission(&self, shape: usize, si: &SurfaceGeometry, wi: Vec3) -> Option<Rgb> {
+        let li = self.shape_light[shape]?;
+        match &self.lights[li as usize] {
+            Light::Area { radiance, .. } if wi.z > 0.0 => Some(radiance.eval(si.uv, si.p)),
+            _ => None,
+        }
+    }
+
+    /// Mitsuba's `direct` integrator.
+    pub fn li_direct<S: Sampler>(
+        &self,
+        settings: &DirectSettings,
+        ray: Ray,
+        hit: Option<Hit>,
+        rng: &mut S,
+        counters: &mut Counters,
+    ) -> Rgb {
+        counters.rays += 1;
+        let Some(hit) = hit else {
+            return if settings.hide_emitters {
+                Rgb::ZERO
+            } else {
+                self.infinite_radiance(ray.d, None, 1.0)
+            };
+        };
+        let shape = hit.shape as usize;
+        let si = self.geometry[shape].surface(&ray, &hit);
+        let wi = si.sh_frame.to_local(-ray.d);
+        let mut result = Rgb::ZERO;
+        if !settings.hide_emitters {
+            if let Some(le) = self.area_emission(shape, &si, wi) {
+                result += le;
+            }
+        }
+        let (ne, nb) = (settings.emitter_samples, settings.bsdf_samples);
+        let total = (ne + nb).max(1) as f32;
+        let (frac_lum, frac_bsdf) = (ne as f32 / total, nb as f32 / total);
+        let ctx = BsdfContext::RADIANCE;
+        let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
+        let sp = si.shading_point(&hit, self.geometry[shape].surface_data());
+        let smooth = bsdf.flags().intersects(specula_bsdf::LobeFlags::SMOOTH);
+
+        // emitter sampling
+        for _ in 0..ne {
+            let u = rng.next_2d();
+            if !smooth {
+                continue;
+            }
+            let Some(ls) = self.sample_light(si.p, u) else {
+                continue;
+            };
+            let wo = si.sh_frame.to_local(ls.wi);
+            let (f, bsdf_pdf) = bsdf.eval_pdf(&ctx, &sp, wi, wo);
+            if f.is_black() {
+                continue;
+            }
+            let o = offset_ray_origin(si.p, si.n_geo, ls.wi);
+            let t_max = if ls.dist.is_finite() {
+                ls.dist * (1.0 - SHADOW_EPSILON)
+            } else {
+                f32::INFINITY
+            };
+            counters.rays += 1;
+            if self.occluded(&Ray { o, d: ls.wi, t_max }) {
+                continue;
+            }
+            let w = if ls.is_delta {
+                1.0
+            } else {
+                mis(ls.pdf * frac_lum, bsdf_pdf * frac_bsdf)
+            };
+            result += f * ls.weight * (wo.z.abs() * w / ne as f32);
+        }
+
+        // BSDF sampling
+        for _ in 0..nb {
+            let u1 = rng.next_1d();
+            let u2 = rng.next_2d();
+            let Some(bs) = bsdf.sample(&ctx, &sp, wi, u1, u2) else {
+                continue;
+            };
+            if bs.pdf <= 0.0 && !bs.lobe.is_delta() {
+                continue;
+            }
+            let d = si.sh_frame.to_world(bs.wo).normalize();
+            let r = Ray {
+                o: offset_ray_origin(si.p, si.n_geo, d),
+                d,
+                t_max: f32::INFINITY,
+            };
+            counters.rays += 1;
+            let delta = bs.lobe.is_delta();
+            let bsdf_pdf = if delta {
+                None
+            } else {
+                Some(bs.pdf * frac_bsdf)
+            };
+            let le = match self.intersect(&r) {
+                None => self.infinite_radiance(d, bsdf_pdf, frac_lum),
+                Some(h2) => {
+                    let s2 = h2.shape as usize;
+                    let si2 = self.geometry[s2].surface(&r, &h2);
+                    let wi2 = si2.sh_frame.to_local(-d);
+                    match self.area_emission(s2, &si2, wi2) {
+                        None => Rgb::ZERO,
+                        Some(le) => {
+                            let w = match bsdf_pdf {
+                                None => 1.0,
+                                Some(p) => mis(
+                                    p,
+                                    self.area_light_pdf(h2.shape, si.p, si2.p, si2.n_geo)
+                                        * frac_lum,
+                                ),
+                            };
+                            le * w
+                        }
+                    }
+                }
+            };
+            if !le.is_black() {
+                result += bs.weight * le * (1.0 / nb as f32);
+            }
+        }
+        result
+    }
+
+    /// Mitsuba's `aov` integrator.
+    fn li_aov<S: Sampler>(
+        &self,
+        a: &AovSettings,
+        ray: Ray,
+        hit: Option<Hit>,
+        rng: &mut S,
+        counters: &mut Counters,
+        out: &mut [f32],
+    ) -> Rgb {
+        let mut k = 0;
+        let mut image = Rgb::ZERO;
+        for (i, (_, inner)) in a.integrators.iter().enumerate() {
+            let l = self.sample(inner, ray, hit, rng, counters, &mut []);
+            let hide = match inner {
+                Integrator::Path(p) => p.hide_emitters,
+                Integrator::Direct(d) => d.hide_emitters,
+                _ => true,
+            };
+            let valid = hit.is_some() || (!hide && !self.infinite_lights.is_empty());
+            if i == 0 {
+                image = l;
+            }
+            if out.len() >= k + 4 {
+                out[k..k + 3].copy_from_slice(&l.0);
+                out[k + 3] = valid as u32 as f32;
+            }
+            k += 4;
+        }
+        if a.integrators.is_empty() {
+            counters.rays += 1;
+        }
+        let si = hit.map(|h| (h, self.geometry[h.shape as usize].surface(&ray, &h)));
+        for (_, t) in &a.aovs {
+            let v: [f32; 3] = match (&si, t) {
+                (None, _) => [0.0; 3],
+                (Some((h, _)), AovType::Depth) => [h.t, 0.0, 0.0],
+                (Some((_, s)), AovType::Position) => s.p.to_array(),
+                (Some((_, s)), AovType::Uv) => [s.uv.x, s.uv.y, 0.0],
+                (Some((_, s)), AovType::GeoNormal) => s.n_geo.to_array(),
+                (Some((_, s)), AovType::ShNormal) => s.sh_frame.n.to_array(),
+                (Some((h, _)), AovType::PrimIndex) => [h.prim as f32, 0.0, 0.0],
+                (Some((h, _)), AovType::ShapeIndex) => [(h.shape + 1) as f32, 0.0, 0.0],
+            };
+            let n = t.suffixes().len();
+            if out.len() >= k + n {
+                out[k..k + n].copy_from_slice(&v[..n]);
+            }
+            k += n;
+        }
+        image
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn scene(integrator: &str, extra: &str) -> Result<Scene> {
+        let text = format!(
+            r#"<scene version="3.0.0">
+    {integrator}
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0,0,5" target="0,0,0" up="0,1,0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="9"/><integer name="height" value="3"/><rfilter type="box"/></film>
+    </sensor>
+    <shape type="sphere"><float name="radius" value="0.5"/><point name="center" x="-1.3" y="0" z="0"/></shape>
+    <shape type="sphere"><float name="radius" value="0.5"/></shape>
+    {extra}
+</scene>"#
+        );
+        Scene::from_xml_str(&text, "<test>", Path::new("."), &[])
+    }
+
+    #[test]
+    fn parses_mitsuba_parameters_and_refuses_bad_ones() {
+        let s = scene(
+            r#"<integrator type="direct"><integer name="shading_samples" value="3"/></integrator>"#,
+            "",
+        )
+        .unwrap();
+        assert_eq!(
+            s.integrator,
+            Integrator::Direct(DirectSettings {
+                emitter_samples: 3,
+                bsdf_samples: 3,
+                hide_emitters: false
+            })
+        );
+        let s = scene(r#"<integrator type="aov"><string name="aovs" value="nn:sh_normal, position:position, depth.y:depth"/><integrator type="path" name="image"/></integrator>"#, "").unwrap();
+        assert_eq!(
+            s.integrator.aov_channels(),
+            [
+                "image.R",
+                "image.G",
+                "image.B",
+                "image.A",
+                "nn.X",
+                "nn.Y",
+                "nn.Z",
+                "position.X",
+                "position.Y",
+                "position.Z",
+                "depth.y.T"
+            ]
+        );
+        for (bad, msg) in [
+            (
+                r#"<integrator type="direct"><integer name="emitter_samples" value="-1"/></integrator>"#,
+                "emitter_samples",
+            ),
+            (
+                r#"<integrator type="direct"><integer name="max_depth" value="2"/></integrator>"#,
+                "max_depth",
+            ),
+            (
+                r#"<integrator type="direct"><integer name="shading_samples" value="2"/><integer name="bsdf_samples" value="0"/></integrator>"#,
+                "not both",
+            ),
+            (
+                r#"<integrator type="direct"><integer name="emitter_samples" value="0"/><integer name="bsdf_samples" value="0"/></integrator>"#,
+                "at least one",
+            ),
+            (
+                r#"<integrator type="aov"><string name="aovs" value="a:nonsense"/></integrator>"#,
+                "invalid AOV type 'nonsense'",
+            ),
+            (
+                r#"<integrator type="aov"><string name="aovs" value="a:dp_du"/></integrator>"#,
+                "not supported yet",
+            ),
+            (
+                r#"<integrator type="aov"><string name="aovs" value="depth"/></integrator>"#,
+                "name:type",
+            ),
+            (
+                r#"<integrator type="depth"><integrator type="path"/></integrator>"#,
+                "cannot be nested",
+            ),
+            (r#"<integrator type="volpath"/>"#, "not supported"),
+        ] {
+            let e = scene(bad, "").err().unwrap().to_string();
+            assert!(e.contains(msg) && e.contains("<test>:2:"), "{e}");
+        }
+    }
+
+    #[test]
+    fn depth_and_aovs_of_the_first_hit() {
+        let s = scene(r#"<integrator type="aov"><string name="aovs" value="d:depth,p:prim_index,s:shape_index,n:geo_normal,uv:uv"/></integrator>"#, "").unwrap();
+        let mut rng = specula_bsdf::rng::Pcg32::new(1, 1);
+        let mut c = Counters::default();
+        let mut out = [f32::NAN; 8];
+        // the centre pixel looks at the second sphere's front
+        let ray = s.camera.ray(Vec2::new(0.5, 0.5));
+        let hit = s.intersect(&ray);
+        let l = s.sample(&s.integrator, ray, hit, &mut rng, &mut c, &mut out);
+        assert_eq!(l, Rgb::ZERO);
+        let t = 5.0 - 0.5 - 0.01; // near clip 0.01
+        assert!((out[0] - t).abs() < 1e-3, "{out:?}");
+        assert_eq!(out[1..3], [0.0, 2.0]);
+        assert!((Vec3::from_slice(&out[3..6]) - Vec3::Z).length() < 1e-3);
+        assert!(out[6..8].iter().all(|v| (0.0..=1.0).contains(v)));
+        // a miss: all zero
+        let ray = s.camera.ray(Vec2::new(0.5, 0.02));
+        let l = s.sample(
+            &s.integrator,
+            ray,
+            s.intersect(&ray),
+            &mut rng,
+            &mut c,
+            &mut out,
+        );
+        assert_eq!((l, out), (Rgb::ZERO, [0.0; 8]));
+        // the depth integrator agrees with the AOV
+        let d = scene(r#"<integrator type="depth"/>"#, "").unwrap();
+        let ray = d.camera.ray(Vec2::new(0.5, 0.5));
+        let l = d.li(ray, &mut rng, &mut c);
+        assert!((l.r() - t).abs() < 1e-3 && l.r() == l.b());
+    }
+
+    #[test]
+    fn direct_strategies_agree_in_expectation() {
+        // a diffuse sphere under a spherical area light and a constant environment: emitter
+        // sampling, BSDF sampling and their combination estimate the same value
+        let light = r#"<shape type="sphere"><point name="center" x="0" y="2" z="2"/><float name="radius" value="0.5"/><emitter type="area"><rgb name="radiance" value="4"/></emitter></shape>
+        <emitter type="constant"><rgb name="radiance" value="0.3"/></emitter>"#;
+        let est = |e: u32, b: u32| {
+            let s = scene(&format!(r#"<integrator type="direct"><integer name="emitter_samples" value="{e}"/><integer name="bsdf_samples" value="{b}"/></integrator>"#), light).unwrap();
+            let mut rng = specula_bsdf::rng::Pcg32::new(7, 3);
+            let mut c = Counters::default();
+            let ray = s.camera.ray(Vec2::new(0.5, 0.45));
+            let n = 200_000;
+            let mut acc = 0.0f64;
+            for _ in 0..n {
+                acc += s.li(ray, &mut rng, &mut c).g() as f64;
+            }
+            acc / n as f64
+        };
+        let both = est(1, 1);
+        let lum = est(1, 0);
+        let bsdf = est(0, 1);
+        let many = est(3, 2);
+        assert!(both > 0.05, "{both}");
+        for (name, v) in [("emitter", lum), ("bsdf", bsdf), ("3+2", many)] {
+            assert!((v / both - 1.0).abs() < 0.02, "{name}: {v} vs {both}");
+        }
     }
 }

@@ -25,6 +25,36 @@ pub struct MeshData {
     /// Per-vertex texture coordinates, in Mitsuba's convention (see the module docs).
     pub uvs: Option<Vec<Vec2>>,
     pub indices: Vec<[u32; 3]>,
+    /// Extra per-vertex and per-face properties of a PLY file (vertex colours, …), named and
+    /// grouped as Mitsuba names them (see [`MeshAttribute`]).
+    pub attributes: Vec<MeshAttribute>,
+}
+
+/// A PLY vertex or face property (group) beyond positions, normals and texture coordinates,
+/// as Mitsuba 3's PLY loader groups them:
+/// - `r g b [a]` or `red green blue [alpha]` → `vertex_color` / `face_color`;
+/// - consecutive properties `{prefix}_{x|y|z}`, `{prefix}_{r|g|b}`, `{prefix}_{0|1|2}` or
+///   `{prefix}_{1|2|3}` → `vertex_{prefix}` (`vertex_{prefix}_color` for `r|g|b`), 1 or 3 of
+///   them (other counts are ignored, as Mitsuba ignores them with a warning);
+/// - properties without a `_` suffix are ignored (Mitsuba: with a warning).
+///
+/// Values are stored as read, integers converted to float without normalisation (Mitsuba
+/// 3.9.1 does the same). Face attributes of polygons apply to every triangle of the fan.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshAttribute {
+    /// `vertex_…` or `face_…`.
+    pub name: String,
+    /// Channels: 1, 3, or 4 (colour with alpha).
+    pub dim: usize,
+    /// `dim` values per vertex (or per triangle).
+    pub data: Vec<f32>,
+}
+
+impl MeshAttribute {
+    /// Whether the attribute is per face (else per vertex).
+    pub fn is_face(&self) -> bool {
+        self.name.starts_with("face_")
+    }
 }
 
 impl MeshData {
@@ -67,6 +97,25 @@ impl MeshData {
                         "{what}: vertex {i} has a non-finite texture coordinate {v}"
                     ));
                 }
+            }
+        }
+        for a in &self.attributes {
+            let count = if a.is_face() { self.indices.len() } else { n };
+            if a.data.len() != count * a.dim {
+                return Err(format!(
+                    "{what}: attribute '{}' has {} values for {count} {} of {} channels",
+                    a.name,
+                    a.data.len(),
+                    if a.is_face() { "faces" } else { "vertices" },
+                    a.dim
+                ));
+            }
+            if let Some(i) = a.data.iter().position(|v| !v.is_finite()) {
+                return Err(format!(
+                    "{what}: attribute '{}' has a non-finite value at {}",
+                    a.name,
+                    i / a.dim
+                ));
             }
         }
         for (f, tri) in self.indices.iter().enumerate() {
@@ -554,6 +603,132 @@ enum Slot {
     Pos(usize),
     Normal(usize),
     Uv(usize),
+    /// Channel of an attribute.
+    Attr(usize, usize),
+}
+
+/// Groups the scalar properties of a PLY element (except `reserved` ones) into attributes the
+/// way Mitsuba 3's PLY loader does (see [`MeshAttribute`]); `kind` is `vertex_` or `face_`.
+/// Returns (name, property index of each channel).
+fn group_attributes(el: &Element, kind: &str, reserved: &[&str]) -> Vec<(String, Vec<usize>)> {
+    let scalar: Vec<(usize, &str)> = el
+        .props
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| matches!(p.kind, PropKind::Scalar(_)))
+        .map(|(i, p)| (i, p.name.as_str()))
+        .collect();
+    let find = |n: &str| scalar.iter().find(|(_, m)| *m == n).map(|(i, _)| *i);
+    let mut out: Vec<(String, Vec<usize>)> = Vec::new();
+    let mut skip: Vec<&str> = reserved.to_vec();
+    for names in [["r", "g", "b", "a"], ["red", "green", "blue", "alpha"]] {
+        if let (Some(r), Some(g), Some(b)) = (find(names[0]), find(names[1]), find(names[2])) {
+            let mut idx = vec![r, g, b];
+            idx.extend(find(names[3]));
+            out.push((format!("{kind}color"), idx));
+            skip.extend(names);
+            break;
+        }
+    }
+    skip.extend(["r", "g", "b", "a"]);
+    const POSTFIX: [&[u8; 4]; 4] = [b"xr01", b"yg12", b"zb23", b"wa34"];
+    let mut seen: Vec<String> = Vec::new();
+    // the attribute being read: prefix, postfix category, property indices
+    let mut cur: Option<(String, usize, Vec<usize>)> = None;
+    let flush = |cur: &mut Option<(String, usize, Vec<usize>)>,
+                 out: &mut Vec<(String, Vec<usize>)>,
+                 seen: &mut Vec<String>| {
+        if let Some((prefix, cat, idx)) = cur.take() {
+            if idx.len() == 1 || idx.len() == 3 {
+                let color = if cat == 1 { "_color" } else { "" };
+                out.push((format!("{kind}{prefix}{color}"), idx));
+                seen.push(prefix);
+            }
+        }
+    };
+    let mut skip_prefix: Option<String> = None;
+    for &(i, name) in &scalar {
+        if skip.contains(&name) {
+            continue;
+        }
+        if let Some(p) = &skip_prefix {
+            if name.starts_with(p.as_str()) {
+                continue;
+            }
+            skip_prefix = None;
+        }
+        let Some(pos) = name.rfind('_') else {
+            flush(&mut cur, &mut out, &mut seen);
+            continue;
+        };
+        let (prefix, postfix) = (&name[..pos], &name[pos + 1..]);
+        if postfix.len() != 1 {
+            flush(&mut cur, &mut out, &mut seen);
+            continue;
+        }
+        let ch = postfix.as_bytes()[0];
+        if cur.as_ref().is_some_and(|(p, _, _)| p != prefix) {
+            flush(&mut cur, &mut out, &mut seen);
+        }
+        match &mut cur {
+            None => {
+                if seen.iter().any(|p| p == prefix) {
+                    skip_prefix = Some(prefix.to_string());
+                    continue;
+                }
+                if let Some(cat) = POSTFIX[0].iter().position(|&c| c == ch) {
+                    cur = Some((prefix.to_string(), cat, vec![i]));
+                }
+            }
+            Some((_, cat, idx)) => {
+                if idx.len() < 4 && POSTFIX[idx.len()][*cat] == ch {
+                    idx.push(i);
+                } else {
+                    // an invalid sequence: the attribute is ignored
+                    cur = None;
+                    skip_prefix = Some(prefix.to_string());
+                }
+            }
+        }
+    }
+    flush(&mut cur, &mut out, &mut seen);
+    out
+}
+
+/// The attributes of an element and the slot of every property that feeds one.
+fn attribute_slots(
+    el: &Element,
+    kind: &str,
+    reserved: &[&str],
+    slots: &mut [Slot],
+) -> Vec<MeshAttribute> {
+    group_attributes(el, kind, reserved)
+        .into_iter()
+        .enumerate()
+        .map(|(k, (name, idx))| {
+            for (c, &i) in idx.iter().enumerate() {
+                slots[i] = Slot::Attr(k, c);
+            }
+            MeshAttribute {
+                name,
+                dim: idx.len(),
+                data: Vec::with_capacity(el.count * idx.len()),
+            }
+        })
+        .collect()
+}
+
+/// The texture-coordinate property names of a vertex element, if it has a pair.
+fn uv_pair(el: &Element) -> Option<[&'static str; 2]> {
+    let has = |n: &str| el.props.iter().any(|p| p.name == n);
+    [
+        ["u", "v"],
+        ["s", "t"],
+        ["texture_u", "texture_v"],
+        ["texture_s", "texture_t"],
+    ]
+    .into_iter()
+    .find(|[a, b]| has(a) && has(b))
 }
 
 fn vertex_slots(el: &Element) -> (Vec<Slot>, bool, bool) {
@@ -605,7 +780,21 @@ fn parse_body(header: &Header, body: &mut dyn Body) -> std::result::Result<MeshD
         match el.name.as_str() {
             "vertex" if !seen_vertex => {
                 seen_vertex = true;
-                let (slots, hn, huv) = vertex_slots(el);
+                let (mut slots, hn, huv) = vertex_slots(el);
+                let mut reserved = vec!["x", "y", "z", "nx", "ny", "nz"];
+                if let Some(pair) = uv_pair(el) {
+                    reserved.extend(pair);
+                }
+                let mut attrs = attribute_slots(el, "vertex_", &reserved, &mut slots);
+                let mut values = vec![0f32; attrs.iter().map(|a| a.dim).sum::<usize>()];
+                let offsets: Vec<usize> = attrs
+                    .iter()
+                    .scan(0, |o, a| {
+                        let r = *o;
+                        *o += a.dim;
+                        Some(r)
+                    })
+                    .collect();
                 for axis in ["x", "y", "z"] {
                     if !el.props.iter().any(|p| p.name == axis) {
                         return Err(format!("vertex element has no '{axis}' property"));
@@ -630,11 +819,17 @@ fn parse_body(header: &Header, body: &mut dyn Body) -> std::result::Result<MeshD
                             (PropKind::Scalar(t), Slot::Uv(k)) => {
                                 uv[k] = body.read(*t).map_err(ctx)? as f32
                             }
+                            (PropKind::Scalar(t), Slot::Attr(k, c)) => {
+                                values[offsets[k] + c] = body.read(*t).map_err(ctx)? as f32
+                            }
                             (PropKind::Scalar(t), Slot::Skip) => body.skip(*t).map_err(ctx)?,
                             (PropKind::List { count, item }, _) => {
                                 skip_list(body, *count, *item).map_err(ctx)?
                             }
                         }
+                    }
+                    for (a, &o) in attrs.iter_mut().zip(&offsets) {
+                        a.data.extend_from_slice(&values[o..o + a.dim]);
                     }
                     let p = Vec3::from(p);
                     if !p.is_finite() {
@@ -648,6 +843,7 @@ fn parse_body(header: &Header, body: &mut dyn Body) -> std::result::Result<MeshD
                         uvs.push(Vec2::from(uv));
                     }
                 }
+                data.attributes.extend(attrs);
             }
             "face" if !faces_seen => {
                 faces_seen = true;
@@ -661,12 +857,22 @@ fn parse_body(header: &Header, body: &mut dyn Body) -> std::result::Result<MeshD
                     );
                 };
                 data.indices.reserve(el.count);
+                let mut slots = vec![Slot::Skip; el.props.len()];
+                let mut attrs = attribute_slots(el, "face_", &[], &mut slots);
+                let dims: Vec<usize> = attrs.iter().map(|a| a.dim).collect();
+                let mut values: Vec<Vec<f32>> = dims.iter().map(|&d| vec![0f32; d]).collect();
                 let mut poly: Vec<u32> = Vec::with_capacity(8);
                 for f in 0..el.count {
+                    let before = data.indices.len();
                     for (j, prop) in el.props.iter().enumerate() {
                         let ctx = |e: String| format!("face {f}: {e}");
                         match &prop.kind {
-                            PropKind::Scalar(t) => body.skip(*t).map_err(ctx)?,
+                            PropKind::Scalar(t) => match slots[j] {
+                                Slot::Attr(k, c) => {
+                                    values[k][c] = body.read(*t).map_err(ctx)? as f32
+                                }
+                                _ => body.skip(*t).map_err(ctx)?,
+                            },
                             PropKind::List { count, item } if j == idx_prop => {
                                 let c = read_count(body, *count).map_err(ctx)?;
                                 poly.clear();
@@ -686,7 +892,14 @@ fn parse_body(header: &Header, body: &mut dyn Body) -> std::result::Result<MeshD
                             }
                         }
                     }
+                    // one value per triangle of the face's fan
+                    for _ in before..data.indices.len() {
+                        for (a, v) in attrs.iter_mut().zip(&values) {
+                            a.data.extend_from_slice(v);
+                        }
+                    }
                 }
+                data.attributes.extend(attrs);
             }
             _ if el.props.is_empty() => {}
             _ => {
@@ -864,7 +1077,60 @@ mod tests {
                 Vec2::new(0.0, 0.1),
             ]),
             indices: vec![[0, 1, 2], [0, 2, 3]],
+            attributes: Vec::new(),
         }
+    }
+
+    #[test]
+    fn ply_attributes_grouped_as_mitsuba() {
+        // Mitsuba 3.9.1 on this file lists: vertex_color [255, 128, 0, …] (uchar, not
+        // normalised), vertex_foo (x, y, z), vertex_bar (bar_0), vertex_baz_color (r, g, b);
+        // `lone` (no postfix) and q_1, q_2 (two fields) are ignored; face_color (color_0..2)
+        // and face_w (w_1).
+        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n\
+property float foo_x\nproperty float foo_y\nproperty float foo_z\nproperty float bar_0\n\
+property float baz_r\nproperty float baz_g\nproperty float baz_b\nproperty float lone\n\
+property float q_1\nproperty float q_2\nelement face 2\nproperty list uchar int vertex_indices\n\
+property float color_0\nproperty float color_1\nproperty float color_2\nproperty uchar w_1\n\
+end_header\n\
+0 0 0 255 128 0 1 2 3 0.5 0.1 0.2 0.3 7 1 2\n\
+1 0 0 0 255 64 4 5 6 0.25 0.4 0.5 0.6 8 3 4\n\
+0 1 0 10 20 30 7 8 9 0.125 0.7 0.8 0.9 9 5 6\n\
+3 0 1 2 0.3 0.6 0.9 128\n\
+4 0 1 2 1 0.1 0.2 0.4 7\n";
+        let dir = tmp_dir("ply_attributes");
+        let path = dir.join("attr.ply");
+        std::fs::write(&path, text).unwrap();
+        // the quad is fanned into two triangles, which share its face attributes
+        let d = load_ply(&path).unwrap();
+        assert_eq!(d.indices.len(), 3);
+        let get = |n: &str| {
+            d.attributes
+                .iter()
+                .find(|a| a.name == n)
+                .unwrap_or_else(|| panic!("{n}: {:?}", d.attributes))
+        };
+        assert_eq!(
+            get("vertex_color").data,
+            [255.0, 128.0, 0.0, 0.0, 255.0, 64.0, 10.0, 20.0, 30.0]
+        );
+        assert_eq!(get("vertex_foo").dim, 3);
+        assert_eq!(get("vertex_foo").data[3..6], [4.0, 5.0, 6.0]);
+        assert_eq!(get("vertex_bar").data, [0.5, 0.25, 0.125]);
+        assert_eq!(get("vertex_baz_color").data[6..], [0.7, 0.8, 0.9]);
+        assert_eq!(
+            get("face_color").data,
+            [0.3, 0.6, 0.9, 0.1, 0.2, 0.4, 0.1, 0.2, 0.4]
+        );
+        assert_eq!(get("face_w").data, [128.0, 7.0, 7.0]);
+        let names: Vec<&str> = d.attributes.iter().map(|a| a.name.as_str()).collect();
+        assert_eq!(names.len(), 6, "{names:?}");
+        assert!(d.positions.len() == 3 && d.validate("x").is_ok());
+        // binary round trip keeps positions; attribute lengths are validated
+        let mut bad = d.clone();
+        bad.attributes[0].data.pop();
+        assert!(bad.validate("bad").unwrap_err().contains("vertex_color"));
     }
 
     #[test]

@@ -1,15 +1,21 @@
-//! Rendering a scene to an image: tiles in parallel (rayon), one deterministic random stream
-//! per pixel, blocks merged in a fixed order — the image depends only on the seed, never on
-//! the number of threads.
+//! Rendering a scene to an image: tiles in parallel (rayon), the scene's sampler restarted at
+//! every pixel and sample (its values a function of seed, pixel, sample and dimension), blocks
+//! merged in a fixed order — the image depends only on the seed, never on the number of
+//! threads. The camera takes sample dimension 0 (the film position), the integrator the rest.
+//! Integrators with AOVs fill extra channels, filtered like the image.
 
 use crate::accel::Intersector;
 use crate::core::{Hit, Ray};
 use crate::film::ImageBlock;
 use crate::integrator::Counters;
+use crate::sampler::{
+    Independent, LowDiscrepancy, MultiJitter, Orthogonal, PixelSampler, SamplerKind, Sobol,
+    Stratified,
+};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use specula_bsdf::rng::Pcg32;
+use specula_bsdf::Rgb;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -20,6 +26,8 @@ const PACKET: usize = 8;
 
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
+    /// Samples per pixel asked for; the scene's sampler may round it up (see
+    /// [`crate::sampler::SamplerSettings::sample_count`]).
     pub spp: u32,
     pub seed: u64,
     /// Worker threads (0 = all cores).
@@ -36,29 +44,35 @@ pub struct RenderOutput {
     pub elapsed: Duration,
     /// False when the render was stopped early (tiles not rendered are black).
     pub complete: bool,
+    /// Samples per pixel taken (`RenderOptions::spp` as the sampler rounded it).
+    pub spp: u32,
+    /// Extra channels of an AOV integrator: (name, one value per pixel, row-major).
+    pub aovs: Vec<(String, Vec<f32>)>,
     /// Pixels whose sums overflowed `f32` (radiance near 3.4e38): black in `rgb`, never ±∞;
     /// a caller should report them (the CLI refuses to write such an image).
     pub overflowed: usize,
 }
 
-/// A 64-bit mix of the seed and the pixel index (SplitMix64 finaliser).
-fn pixel_seed(seed: u64, index: u64) -> u64 {
-    let mut z = seed.wrapping_add(index.wrapping_mul(0x9E37_79B9_7F4A_7C15));
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+/// The image block of a tile and the blocks of its AOV channels (three per block).
+struct TileBlocks {
+    image: ImageBlock,
+    aovs: Vec<ImageBlock>,
 }
 
-fn render_tile(
+fn render_tile<S: PixelSampler>(
     scene: &Scene,
-    opts: &RenderOptions,
-    x0: usize,
-    y0: usize,
-    w: usize,
-    h: usize,
-) -> (ImageBlock, Counters) {
+    sampler: &mut S,
+    spp: u32,
+    aov_count: usize,
+    (x0, y0, w, h): (usize, usize, usize, usize),
+) -> (TileBlocks, Counters) {
     let film = &scene.film;
     let mut block = film.new_block(x0, y0, w, h);
+    let mut aov_blocks: Vec<ImageBlock> = (0..aov_count.div_ceil(3))
+        .map(|_| film.new_block(x0, y0, w, h))
+        .collect();
+    let mut aov = vec![0.0f32; aov_blocks.len() * 3];
+    let integrator = &scene.integrator;
     let mut c = Counters::default();
     let inv = Vec2::new(1.0 / film.width as f32, 1.0 / film.height as f32);
     let mut pos = [Vec2::ZERO; PACKET];
@@ -71,22 +85,35 @@ fn render_tile(
     for y in y0..y0 + h {
         for x in x0..x0 + w {
             let index = (y * film.width + x) as u64;
-            let mut rng = Pcg32::new(pixel_seed(opts.seed, index), index);
+            sampler.start_pixel(index);
             // the pixel's camera rays are traced in packets of up to 8 (they are coherent),
             // then each path goes on alone
             let mut done = 0;
-            while done < opts.spp {
-                let n = (opts.spp - done).min(PACKET as u32) as usize;
+            while done < spp {
+                let n = (spp - done).min(PACKET as u32) as usize;
                 for i in 0..n {
-                    pos[i] = Vec2::new(x as f32 + rng.next_f32(), y as f32 + rng.next_f32());
-                    rays[i] = scene.camera.ray(pos[i] * inv);
+                    sampler.start_sample(done + i as u32, 0);
+                    pos[i] = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+                    // a thin lens draws its aperture sample next; a pinhole draws none
+                    rays[i] = scene.camera.sample_ray(pos[i] * inv, || sampler.next_2d());
                 }
                 scene.accel.intersect_packet(&rays[..n], &mut hits[..n]);
                 for i in 0..n {
-                    let l = scene.li_from(rays[i], hits[i].take(), &mut rng, &mut c);
+                    sampler.start_sample(done + i as u32, 1);
+                    let l = scene.sample(
+                        integrator,
+                        rays[i],
+                        hits[i].take(),
+                        sampler,
+                        &mut c,
+                        &mut aov,
+                    );
                     c.samples += 1;
                     if l.is_finite() {
                         block.put(pos[i], l);
+                        for (k, b) in aov_blocks.iter_mut().enumerate() {
+                            b.put(pos[i], Rgb([aov[3 * k], aov[3 * k + 1], aov[3 * k + 2]]));
+                        }
                     } else {
                         c.invalid += 1;
                     }
@@ -95,7 +122,13 @@ fn render_tile(
             }
         }
     }
-    (block, c)
+    (
+        TileBlocks {
+            image: block,
+            aovs: aov_blocks,
+        },
+        c,
+    )
 }
 
 /// Render with progress reports (`progress(tiles_done, tiles_total)`) and a stop flag that
@@ -106,7 +139,25 @@ pub fn render(
     stop: &AtomicBool,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> RenderOutput {
+    match scene.sampler.kind {
+        SamplerKind::Independent => render_with::<Independent>(scene, opts, stop, progress),
+        SamplerKind::Stratified => render_with::<Stratified>(scene, opts, stop, progress),
+        SamplerKind::MultiJitter => render_with::<MultiJitter>(scene, opts, stop, progress),
+        SamplerKind::Orthogonal => render_with::<Orthogonal>(scene, opts, stop, progress),
+        SamplerKind::LowDiscrepancy => render_with::<LowDiscrepancy>(scene, opts, stop, progress),
+        SamplerKind::Sobol => render_with::<Sobol>(scene, opts, stop, progress),
+    }
+}
+
+fn render_with<S: PixelSampler>(
+    scene: &Scene,
+    opts: &RenderOptions,
+    stop: &AtomicBool,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> RenderOutput {
     let start = Instant::now();
+    let spp = scene.sampler.sample_count(opts.spp);
+    let aov_names = scene.integrator.aov_channels();
     let (fw, fh) = (scene.film.width, scene.film.height);
     let tiles: Vec<(usize, usize)> = (0..fh.div_ceil(TILE))
         .flat_map(|ty| (0..fw.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
@@ -120,7 +171,9 @@ pub fn render(
                 if stop.load(Ordering::Relaxed) {
                     return None;
                 }
-                let r = render_tile(scene, opts, x0, y0, TILE.min(fw - x0), TILE.min(fh - y0));
+                let mut sampler = S::new(&scene.sampler, spp, opts.seed);
+                let rect = (x0, y0, TILE.min(fw - x0), TILE.min(fh - y0));
+                let r = render_tile(scene, &mut sampler, spp, aov_names.len(), rect);
                 let n = done.fetch_add(1, Ordering::Relaxed) + 1;
                 progress(n, total);
                 Some(r)
@@ -139,17 +192,30 @@ pub fn render(
         work()
     };
     let mut film = scene.film.clone();
+    let mut aov_films = vec![scene.film.clone(); aov_names.len().div_ceil(3)];
     let mut counters = Counters::default();
     let mut complete = true;
     for b in blocks {
         match b {
-            Some((block, c)) => {
-                film.merge(&block);
+            Some((blocks, c)) => {
+                film.merge(&blocks.image);
+                for (f, b) in aov_films.iter_mut().zip(&blocks.aovs) {
+                    f.merge(b);
+                }
                 counters.add(&c);
             }
             None => complete = false,
         }
     }
+    let developed: Vec<Vec<f32>> = aov_films.iter().map(|f| f.develop()).collect();
+    let aovs = aov_names
+        .into_iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let (plane, ch) = (&developed[k / 3], k % 3);
+            (name, plane.iter().skip(ch).step_by(3).copied().collect())
+        })
+        .collect();
     let (rgb, overflowed) = film.develop_counting();
     RenderOutput {
         width: fw,
@@ -158,6 +224,8 @@ pub fn render(
         counters,
         elapsed: start.elapsed(),
         complete,
+        spp,
+        aovs,
         overflowed,
     }
 }

@@ -1,13 +1,15 @@
 //! A renderable scene, assembled from a Mitsuba 3 XML plugin tree.
 
 use crate::accel::{Bvh, Intersector};
-use crate::camera::{FovAxis, PerspectiveCamera};
+use crate::camera::{Camera, FilmWindow};
 use crate::core::{Loc, Ray, Result, SceneError};
-use crate::emitters::Emitter;
+use crate::emitters::{Emitter, NamedTexture};
 use crate::film::{Film, RFilter};
-use crate::geometry::Geometry;
-use crate::texture::{Bitmap, Checkerboard};
-use crate::xml::{Node, PropValue};
+use crate::geometry::{Geometry, ShapeGroup};
+use crate::integrator::Integrator;
+use crate::sampler::SamplerSettings;
+use crate::texture::{Bitmap, Checkerboard, MeshAttributeTexture};
+use crate::xml::{Node, PropValue, Usage};
 use glam::{Mat4, Vec3};
 use specula_bsdf::{build_bsdf, Bsdf, Props, Rgb, Texture, Value};
 use std::collections::HashMap;
@@ -31,9 +33,148 @@ pub enum Light {
     /// Mitsuba's `area` emitter on shape `shape`, emitting `radiance` from its front side.
     Area {
         shape: u32,
-        radiance: Rgb,
+        radiance: AreaRadiance,
     },
     Other(Emitter),
+}
+
+/// The `radiance` of Mitsuba's `area` emitter: a colour, or a texture looked up at the surface
+/// point's uv (a nested `<texture name="radiance">` or a `<ref name="radiance" id=…>`).
+///
+/// Light sampling picks points uniformly by area (spheres seen from outside: uniformly in
+/// the cone they subtend) whether or not the radiance is textured, and the MIS pdf is that
+/// of the same strategy. Mitsuba importance-samples a textured radiance's image instead
+/// (`Texture::sample_position`); both are unbiased, so images agree in expectation and
+/// differ only in noise.
+#[derive(Clone, Debug)]
+pub enum AreaRadiance {
+    Rgb(Rgb),
+    Texture(Arc<dyn Texture>),
+}
+
+impl From<Rgb> for AreaRadiance {
+    fn from(c: Rgb) -> Self {
+        AreaRadiance::Rgb(c)
+    }
+}
+
+impl AreaRadiance {
+    /// Radiance at a surface point with texture coordinates `uv` (position `p`).
+    #[inline]
+    pub fn eval(&self, uv: glam::Vec2, p: Vec3) -> Rgb {
+        match self {
+            AreaRadiance::Rgb(c) => *c,
+            AreaRadiance::Texture(t) => t.eval(&specula_bsdf::ShadingPoint {
+                uv,
+                p,
+                ..Default::default()
+            }),
+        }
+    }
+
+    /// Radiance at the point `o + t·d` where a ray meets the (analytic) shape `g`: the point's
+    /// uv is only computed for a textured radiance.
+    #[inline]
+    pub fn eval_along(&self, g: &Geometry, o: Vec3, d: Vec3, t: f32) -> Rgb {
+        match self {
+            AreaRadiance::Rgb(c) => *c,
+            AreaRadiance::Texture(_) => {
+                let ray = Ray {
+                    o,
+                    d,
+                    t_max: f32::INFINITY,
+                };
+                let hit = crate::core::Hit {
+                    t,
+                    shape: 0,
+                    prim: 0,
+                    u: 0.0,
+                    v: 0.0,
+                    vertices: None,
+                };
+                let si = g.surface(&ray, &hit);
+                self.eval(si.uv, si.p)
+            }
+        }
+    }
+}
+
+/// Changes applied to a scene file as it loads.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Render at this film size (width, height) with the same field of view: exactly as if
+    /// every film's `width` and `height` were edited in the file and its crop window reset to
+    /// the full film (a sensor without a film gets an `hdrfilm` of this size).
+    pub size: Option<(usize, usize)>,
+}
+
+impl LoadOptions {
+    /// Applies the options to the parsed scene tree.
+    fn apply(&self, root: &mut Node) -> Result<()> {
+        let Some((w, h)) = self.size else {
+            return Ok(());
+        };
+        if w == 0 || h == 0 || w > 1 << 16 || h > 1 << 16 {
+            return Err(SceneError::new(
+                None,
+                format!("invalid film size {w}×{h} (each side must lie in [1, 65536])"),
+            ));
+        }
+        fn film_props(film: &mut Node, w: usize, h: usize) {
+            film.props.retain(|p| {
+                !matches!(
+                    p.name.as_str(),
+                    "width"
+                        | "height"
+                        | "crop_offset_x"
+                        | "crop_offset_y"
+                        | "crop_width"
+                        | "crop_height"
+                )
+            });
+            for (name, v) in [("width", w), ("height", h)] {
+                let loc = film.loc.clone();
+                film.props
+                    .push(crate::xml::Prop::new(name, PropValue::Int(v as i64), loc));
+            }
+        }
+        // ids of films declared apart from their sensor (reached through <ref>)
+        fn film_ids(n: &Node, ids: &mut Vec<String>) {
+            if n.tag == "film" {
+                ids.extend(n.id.clone());
+            }
+            n.children.iter().for_each(|c| film_ids(c, ids));
+        }
+        let mut ids = vec![];
+        film_ids(root, &mut ids);
+        fn walk(n: &mut Node, w: usize, h: usize, ids: &[String]) {
+            if n.tag == "film" {
+                film_props(n, w, h);
+            }
+            let has_film = n.children.iter().any(|c| {
+                c.tag == "film"
+                    || (c.tag == "ref" && c.id.as_ref().is_some_and(|i| ids.contains(i)))
+            });
+            if n.tag == "sensor" && !has_film {
+                let mut film = Node {
+                    tag: "film".into(),
+                    plugin_type: "hdrfilm".into(),
+                    id: None,
+                    name: None,
+                    props: vec![],
+                    children: vec![],
+                    loc: n.loc.clone(),
+                };
+                film_props(&mut film, w, h);
+                n.children.push(film);
+            }
+            for c in &mut n.children {
+                walk(c, w, h, ids);
+            }
+        }
+        walk(root, w, h, &ids);
+        Ok(())
+    }
 }
 
 pub struct Scene {
@@ -47,23 +188,46 @@ pub struct Scene {
     /// Indices of infinitely distant lights (environment, constant) seen by escaping rays.
     pub infinite_lights: Vec<u32>,
     pub accel: Bvh,
-    pub camera: PerspectiveCamera,
+    pub camera: Camera,
     pub film: Film,
+    /// Samples per pixel: the sampler's `sample_count`, rounded as the sampler requires.
     pub spp: u32,
+    /// The sampler's `seed`.
     pub seed: u64,
-    pub integrator: PathSettings,
+    pub sampler: SamplerSettings,
+    pub integrator: Integrator,
+    /// Participating media ([`crate::media`]); shapes and the camera refer to them by index.
+    pub media: Vec<crate::media::Medium>,
+    /// Interior and exterior medium of each shape (Mitsuba's `interior`/`exterior`).
+    pub shape_media: Vec<crate::media::ShapeMedia>,
+    /// The medium the camera sits in.
+    pub camera_medium: Option<u32>,
+    /// The integrator is Mitsuba's `volpath` (with [`Scene::integrator`]'s settings).
+    pub volpath: bool,
 }
 
 impl Scene {
     /// Load a Mitsuba 3 scene file; `overrides` are `-D name=value` pairs.
     pub fn load(path: &Path, overrides: &[(String, String)]) -> Result<Scene> {
-        let root = crate::xml::load_scene(path, overrides)?;
+        Self::load_with(path, overrides, &LoadOptions::default())
+    }
+
+    /// [`Scene::load`] with [`LoadOptions`] (e.g. another film size).
+    pub fn load_with(
+        path: &Path,
+        overrides: &[(String, String)],
+        opts: &LoadOptions,
+    ) -> Result<Scene> {
+        let mut root = crate::xml::load_scene(path, overrides)?;
+        opts.apply(&mut root)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Builder {
             base,
             ids: HashMap::new(),
             bsdf_ids: HashMap::new(),
             texture_ids: HashMap::new(),
+            groups: HashMap::new(),
+            attr_uses: MeshAttrUses::default(),
         }
         .build(&root)
     }
@@ -82,6 +246,8 @@ impl Scene {
             ids: HashMap::new(),
             bsdf_ids: HashMap::new(),
             texture_ids: HashMap::new(),
+            groups: HashMap::new(),
+            attr_uses: MeshAttrUses::default(),
         }
         .build(&root)
     }
@@ -173,6 +339,8 @@ fn find_and_build_bsdf(
         ids: HashMap::new(),
         bsdf_ids: HashMap::new(),
         texture_ids: HashMap::new(),
+        groups: HashMap::new(),
+        attr_uses: MeshAttrUses::default(),
     };
     let mut last = None;
     for child in &root.children {
@@ -224,6 +392,19 @@ struct Builder {
     ids: HashMap<String, (String, Loc)>,
     bsdf_ids: HashMap<String, u32>,
     texture_ids: HashMap<String, Arc<dyn Texture>>,
+    /// `shapegroup`s by id, for `instance`s.
+    groups: HashMap<String, Arc<ShapeGroup>>,
+    attr_uses: MeshAttrUses,
+}
+
+/// The mesh attributes that materials read through `mesh_attribute` textures, checked against
+/// the shapes the materials are attached to.
+#[derive(Default)]
+struct MeshAttrUses {
+    /// Met while building the current BSDF: (attribute name, where the texture was given).
+    pending: std::cell::RefCell<Vec<(String, Loc)>>,
+    /// Per BSDF (index into the scene's list).
+    by_bsdf: HashMap<u32, Vec<(String, Loc)>>,
 }
 
 struct Parts {
@@ -232,6 +413,7 @@ struct Parts {
     shape_light: Vec<Option<u32>>,
     bsdfs: Vec<Bsdf>,
     lights: Vec<Light>,
+    media: crate::media::SceneMedia,
 }
 
 impl Builder {
@@ -265,13 +447,10 @@ impl Builder {
             shape_light: vec![],
             bsdfs: vec![],
             lights: vec![],
+            media: Default::default(),
         };
-        let mut integrator = PathSettings {
-            max_depth: -1,
-            rr_depth: 5,
-            hide_emitters: false,
-        };
-        let mut sensor: Option<(PerspectiveCamera, Film, u32, u64)> = None;
+        let mut integrator = Integrator::default();
+        let mut sensor: Option<(Camera, Film, SamplerSettings)> = None;
         for child in &root.children {
             if let Some(id) = &child.id {
                 if child.tag != "ref" {
@@ -286,11 +465,20 @@ impl Builder {
                 }
             }
             match child.tag.as_str() {
+                "integrator" if child.plugin_type == "volpath" => {
+                    parts.media.volpath = true;
+                    integrator = Integrator::Volpath(crate::volpath::settings_from_node(child)?);
+                }
                 "integrator" => integrator = self.integrator(child)?,
-                "sensor" => sensor = Some(self.sensor(child)?),
+                "sensor" => {
+                    parts.media.camera_medium = parts.media.attached(child, false)?.1;
+                    sensor = Some(self.sensor(child)?)
+                }
+                "medium" => parts.media.declare(child)?,
                 "bsdf" => {
                     let b = self.bsdf(child)?;
                     parts.bsdfs.push(b);
+                    self.file_mesh_attributes(parts.bsdfs.len() as u32 - 1);
                     if let Some(id) = &child.id {
                         self.bsdf_ids.insert(id.clone(), parts.bsdfs.len() as u32 - 1);
                     }
@@ -315,7 +503,7 @@ impl Builder {
             }
         }
         root.check_unused(&[])?;
-        let Some((camera, film, spp, seed)) = sensor else {
+        let Some((camera, film, sampler)) = sensor else {
             return Err(SceneError::new(
                 Some(root.loc.clone()),
                 "the scene has no <sensor>",
@@ -334,6 +522,7 @@ impl Builder {
             .filter(|(_, l)| matches!(l, Light::Other(e) if e.is_infinite()))
             .map(|(i, _)| i as u32)
             .collect();
+        parts.media.check_integrator(root)?;
         let accel = Bvh::build(&parts.geometry);
         Ok(Scene {
             geometry: parts.geometry,
@@ -345,93 +534,44 @@ impl Builder {
             accel,
             camera,
             film,
-            spp,
-            seed,
+            spp: sampler.sample_count(sampler.sample_count),
+            seed: sampler.seed,
+            sampler,
             integrator,
+            media: parts.media.media,
+            shape_media: parts.media.shape_media,
+            camera_medium: parts.media.camera_medium,
+            volpath: parts.media.volpath,
         })
     }
 
-    fn integrator(&self, n: &Node) -> Result<PathSettings> {
-        if n.plugin_type != "path" {
-            return Err(SceneError::new(
-                Some(n.loc.clone()),
-                format!(
-                    "integrator '{}' is not supported (supported: path)",
-                    n.plugin_type
-                ),
-            ));
-        }
-        let s = PathSettings {
-            max_depth: n.int("max_depth", -1)? as i32,
-            rr_depth: n.int("rr_depth", 5)? as i32,
-            hide_emitters: n.bool("hide_emitters", false)?,
-        };
-        if s.max_depth < -1 || s.rr_depth <= 0 {
-            return Err(SceneError::new(
-                Some(n.loc.clone()),
-                "max_depth must be ≥ −1 and rr_depth ≥ 1",
-            ));
-        }
-        n.check_unused(&["max_depth", "rr_depth", "hide_emitters"])?;
-        Ok(s)
+    fn integrator(&self, n: &Node) -> Result<Integrator> {
+        Integrator::from_node(n)
     }
 
-    fn sensor(&self, n: &Node) -> Result<(PerspectiveCamera, Film, u32, u64)> {
-        if n.plugin_type != "perspective" {
+    /// A `<sampler>` (nested in a sensor).
+    fn sampler(&self, n: &Node) -> Result<SamplerSettings> {
+        SamplerSettings::from_node(n)
+    }
+
+    fn sensor(&self, n: &Node) -> Result<(Camera, Film, SamplerSettings)> {
+        if !crate::camera::SENSORS.contains(&n.plugin_type.as_str()) {
             return Err(SceneError::new(
                 Some(n.loc.clone()),
                 format!(
-                    "sensor '{}' is not supported (supported: perspective)",
-                    n.plugin_type
+                    "sensor '{}' is not supported (supported: {})",
+                    n.plugin_type,
+                    crate::camera::SENSORS.join(", ")
                 ),
             ));
         }
         let mut film = None;
-        let mut spp = 4u32;
-        let mut seed = 0u64;
+        let mut sampler = SamplerSettings::default();
         for c in &n.children {
             match c.tag.as_str() {
                 "film" => film = Some(self.film(c)?),
-                "sampler" => {
-                    const SAMPLERS: [&str; 5] = [
-                        "independent",
-                        "stratified",
-                        "multijitter",
-                        "ldsampler",
-                        "orthogonal",
-                    ];
-                    if !SAMPLERS.contains(&c.plugin_type.as_str()) {
-                        return Err(SceneError::new(
-                            Some(c.loc.clone()),
-                            format!(
-                                "sampler '{}' is not supported (supported: {})",
-                                c.plugin_type,
-                                SAMPLERS.join(", ")
-                            ),
-                        ));
-                    }
-                    let count = c.int("sample_count", 4)?;
-                    if count <= 0 {
-                        return Err(SceneError::new(
-                            Some(c.loc.clone()),
-                            "sample_count must be positive",
-                        ));
-                    }
-                    spp = count as u32;
-                    seed = c.int("seed", 0)? as u64;
-                    c.check_unused(&[
-                        "sample_count",
-                        "seed",
-                        "jitter",
-                        "dimension",
-                        "scramble",
-                        "strength",
-                    ])?;
-                    // accepted for compatibility; Specula's independent sampler ignores them
-                    for p in ["jitter", "dimension", "scramble", "strength"] {
-                        let _ = c.prop(p);
-                    }
-                }
+                "medium" | "ref" => {} // the camera's medium (build() reads it)
+                "sampler" => sampler = self.sampler(c)?,
                 other => {
                     return Err(SceneError::new(
                         Some(c.loc.clone()),
@@ -440,36 +580,19 @@ impl Builder {
                 }
             }
         }
-        let film = film.unwrap_or(Film::new(768, 576, RFilter::default_gaussian()));
-        let axis_name = n.string("fov_axis", "x")?;
-        let axis = FovAxis::parse(&axis_name).ok_or_else(|| {
-            SceneError::new(
-                Some(n.loc.clone()),
-                format!("fov_axis '{axis_name}' is invalid (x, y, diagonal, smaller, larger)"),
-            )
-        })?;
-        if n.has("focal_length") {
-            return Err(SceneError::new(
-                Some(n.loc.clone()),
-                "focal_length is not supported; give fov",
-            ));
-        }
-        let fov = n.float("fov", 0.0)?;
-        if !(fov > 0.0 && fov < 180.0) {
-            return Err(SceneError::new(
-                Some(n.loc.clone()),
-                format!("fov must lie in (0, 180) degrees, got {fov}"),
-            ));
-        }
-        let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
-        let near = n.float("near_clip", 1e-2)?;
-        let far = n.float("far_clip", 1e4)?;
-        n.check_unused(&["fov", "fov_axis", "to_world", "near_clip", "far_clip"])?;
-        let cam = PerspectiveCamera::new(to_world, fov, axis, film.width, film.height, near, far);
-        Ok((cam, film, spp, seed))
+        // Mitsuba's default film: hdrfilm, 768 × 576
+        let (film, window) = match film {
+            Some(f) => f,
+            None => (
+                Film::new(768, 576, RFilter::default_gaussian()),
+                FilmWindow::full(768, 576),
+            ),
+        };
+        let cam = Camera::from_node(n, &window)?;
+        Ok((cam, film, sampler))
     }
 
-    fn film(&self, n: &Node) -> Result<Film> {
+    fn film(&self, n: &Node) -> Result<(Film, FilmWindow)> {
         if n.plugin_type != "hdrfilm" {
             return Err(SceneError::new(
                 Some(n.loc.clone()),
@@ -501,6 +624,7 @@ impl Builder {
             }
             filter = self.rfilter(c)?;
         }
+        let window = FilmWindow::from_node(n, w as usize, h as usize)?;
         n.check_unused(&[
             "width",
             "height",
@@ -511,7 +635,8 @@ impl Builder {
             "banner",
             "sample_border",
         ])?;
-        Ok(Film::new(w as usize, h as usize, filter))
+        let (cw, ch) = window.crop_size;
+        Ok((Film::new(cw, ch, filter), window))
     }
 
     fn rfilter(&self, n: &Node) -> Result<RFilter> {
@@ -562,10 +687,27 @@ impl Builder {
                     .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
                 Arc::new(b)
             }
+            "mesh_attribute" => {
+                let name = n.string_opt("name")?.ok_or_else(|| {
+                    SceneError::new(
+                        Some(n.loc.clone()),
+                        "mesh_attribute needs 'name' (vertex_… or face_…)",
+                    )
+                })?;
+                if !(name.starts_with("vertex_") || name.starts_with("face_")) {
+                    return Err(SceneError::new(
+                        Some(n.loc.clone()),
+                        format!("invalid mesh attribute name '{name}': it must start with 'vertex_' or 'face_'"),
+                    ));
+                }
+                let scale = n.float("scale", 1.0)?;
+                n.check_unused(&["name", "scale"])?;
+                Arc::new(MeshAttributeTexture { name, scale })
+            }
             other => {
                 return Err(SceneError::new(
                     Some(n.loc.clone()),
-                    format!("texture '{other}' is not supported (supported: bitmap, checkerboard)"),
+                    format!("texture '{other}' is not supported (supported: bitmap, checkerboard, mesh_attribute)"),
                 ))
             }
         };
@@ -574,6 +716,9 @@ impl Builder {
 
     /// Convert an XML BSDF node into the material library's parameters and build it.
     fn bsdf(&self, n: &Node) -> Result<Bsdf> {
+        if n.plugin_type == "null" {
+            return crate::media::null_bsdf(n);
+        }
         let mut props = Props::new(n.plugin_type.clone(), loc_str(&n.loc));
         for p in &n.props {
             let v = match &p.value {
@@ -586,7 +731,27 @@ impl Builder {
                 }
                 PropValue::Str(v) => Value::Str(v.clone()),
                 PropValue::Rgb(v) => Value::Rgb(Rgb(*v)),
-                PropValue::Spectrum(v) => Value::Float(*v as f64),
+                // a constant stays a number; anything else becomes RGB the way Mitsuba's
+                // plugins read it: IORs and roughness unbounded, the rest as reflectances
+                PropValue::Spectrum(s) => match s.as_constant() {
+                    Some(v) => Value::Float(v),
+                    None => {
+                        let usage = match p.name.as_str() {
+                            "eta" | "k" | "alpha" | "alpha_u" | "alpha_v" => Usage::Unbounded,
+                            _ => Usage::Reflectance,
+                        };
+                        let rgb = s.to_rgb(usage).map_err(|why| {
+                            SceneError::new(
+                                Some(p.loc.clone()),
+                                format!(
+                                    "parameter '{}' of bsdf '{}': {why}",
+                                    p.name, n.plugin_type
+                                ),
+                            )
+                        })?;
+                        Value::Rgb(Rgb(rgb))
+                    }
+                },
                 other => {
                     return Err(SceneError::new(
                         Some(p.loc.clone()),
@@ -603,13 +768,18 @@ impl Builder {
         for c in &n.children {
             match c.tag.as_str() {
                 "texture" => {
-                    let name = c.name.clone().ok_or_else(|| {
-                        SceneError::new(
-                            Some(c.loc.clone()),
-                            "a texture nested in a bsdf needs a 'name' (the parameter it sets)",
-                        )
-                    })?;
+                    // bumpmap takes its one texture whatever its name (as Mitsuba)
+                    let name =
+                        match (&c.name, n.plugin_type.as_str()) {
+                            (Some(name), _) => name.clone(),
+                            (None, "bumpmap") => "(unnamed texture)".to_string(),
+                            (None, _) => return Err(SceneError::new(
+                                Some(c.loc.clone()),
+                                "a texture nested in a bsdf needs a 'name' (the parameter it sets)",
+                            )),
+                        };
                     let t = self.texture(c)?;
+                    self.note_mesh_attribute(&t, &c.loc);
                     props
                         .set(&name, Value::Texture(t), loc_str(&c.loc))
                         .map_err(bsdf_err)?;
@@ -621,6 +791,7 @@ impl Builder {
                 "ref" => {
                     let id = c.id.clone().unwrap_or_default();
                     if let Some(t) = self.texture_ids.get(&id) {
+                        self.note_mesh_attribute(t, &c.loc);
                         let name = c.name.clone().ok_or_else(|| {
                             SceneError::new(
                                 Some(c.loc.clone()),
@@ -645,6 +816,58 @@ impl Builder {
         build_bsdf(props).map_err(bsdf_err)
     }
 
+    /// Remembers that the BSDF being built reads a mesh attribute (when `t` is a
+    /// `mesh_attribute` texture).
+    fn note_mesh_attribute(&self, t: &Arc<dyn Texture>, loc: &Loc) {
+        if let Some(name) = t.mesh_attribute() {
+            self.attr_uses
+                .pending
+                .borrow_mut()
+                .push((name.to_string(), loc.clone()));
+        }
+    }
+
+    /// Files the mesh attributes met while building BSDF `index` under it.
+    fn file_mesh_attributes(&mut self, index: u32) {
+        let uses = self.attr_uses.pending.take();
+        if !uses.is_empty() {
+            self.attr_uses
+                .by_bsdf
+                .entry(index)
+                .or_default()
+                .extend(uses);
+        }
+    }
+
+    /// Checks that shape `geom` (declared at `at`) has every attribute BSDF `bsdf` reads, with
+    /// 1 or 3 channels (Mitsuba fails at render time).
+    fn check_mesh_attributes(&self, bsdf: u32, geom: &Geometry, at: &Loc) -> Result<()> {
+        let Some(uses) = self.attr_uses.by_bsdf.get(&bsdf) else {
+            return Ok(());
+        };
+        for (name, loc) in uses {
+            let msg = match geom {
+                Geometry::Mesh(m) => match m.attribute(name) {
+                    Some(a) if a.dim == 1 || a.dim == 3 => continue,
+                    Some(a) => format!(
+                        "mesh_attribute '{name}': the attribute has {} channels (1 or 3 can be read)",
+                        a.dim
+                    ),
+                    None => {
+                        let have: Vec<&str> = m.attributes.iter().map(|a| a.name.as_str()).collect();
+                        format!(
+                            "mesh_attribute '{name}': the shape at {at} has no such attribute (it has: {})",
+                            if have.is_empty() { "none".to_string() } else { have.join(", ") }
+                        )
+                    }
+                },
+                _ => format!("mesh_attribute '{name}': the shape at {at} is not a mesh"),
+            };
+            return Err(SceneError::new(Some(loc.clone()), msg));
+        }
+        Ok(())
+    }
+
     fn bad_ref(&self, c: &Node, want: &str) -> SceneError {
         let id = c.id.clone().unwrap_or_default();
         match self.ids.get(&id) {
@@ -660,19 +883,95 @@ impl Builder {
     }
 
     fn emitter(&self, n: &Node) -> Result<Emitter> {
-        Emitter::from_node(n, &self.base)
+        let textures = self.emitter_textures(n)?;
+        Emitter::from_node_textured(n, &self.base, &textures)
+    }
+
+    /// The textures nested in (or referenced by) an emitter, with the parameter each sets;
+    /// other nested elements are left for the emitter to reject.
+    fn emitter_textures(&self, n: &Node) -> Result<Vec<NamedTexture>> {
+        let mut out = vec![];
+        for c in &n.children {
+            let texture = match c.tag.as_str() {
+                "texture" => self.texture(c)?,
+                "ref" => match c.id.as_ref().and_then(|id| self.texture_ids.get(id)) {
+                    Some(t) => t.clone(),
+                    None => return Err(self.bad_ref(c, "texture")),
+                },
+                _ => continue,
+            };
+            let name = c.name.clone().ok_or_else(|| {
+                c.error(format!(
+                    "a texture given to {} needs a 'name' (the parameter it sets)",
+                    n.describe()
+                ))
+            })?;
+            out.push(NamedTexture {
+                name,
+                texture,
+                loc: c.loc.clone(),
+            });
+        }
+        Ok(out)
+    }
+
+    /// Mitsuba's `area` emitter nested in a shape: its `radiance`, a colour or a texture.
+    fn area_radiance(&self, c: &Node) -> Result<AreaRadiance> {
+        let textures = self.emitter_textures(c)?;
+        if let Some(other) = c
+            .children
+            .iter()
+            .find(|x| x.tag != "texture" && x.tag != "ref")
+        {
+            return Err(other.error(format!(
+                "<{}> cannot be nested in an area emitter",
+                other.tag
+            )));
+        }
+        let radiance = match textures.as_slice() {
+            [] => AreaRadiance::Rgb(crate::emitters::light_rgb(c, "radiance")?),
+            [t] if t.name == "radiance" && !c.has("radiance") => {
+                AreaRadiance::Texture(t.texture.clone())
+            }
+            [t, ..] => {
+                return Err(SceneError::new(
+                    Some(t.loc.clone()),
+                    format!(
+                        "an area emitter takes one texture, 'radiance' (got '{}'{})",
+                        t.name,
+                        if c.has("radiance") {
+                            " besides a radiance value"
+                        } else {
+                            ""
+                        }
+                    ),
+                ))
+            }
+        };
+        c.check_unused(&["radiance"])?;
+        Ok(radiance)
     }
 
     fn shape(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        match n.plugin_type.as_str() {
+            "shapegroup" => return self.shapegroup(n, parts),
+            "instance" => return self.instance(n, parts),
+            "merge" => return self.merge(n, parts),
+            _ => {}
+        }
         let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         let flip = n.bool("flip_normals", false)?;
         let geom = match n.plugin_type.as_str() {
-            "obj" | "ply" => {
+            "obj" | "ply" | "serialized" => {
                 let file = n.string_opt("filename")?.ok_or_else(|| SceneError::new(Some(n.loc.clone()), format!("{} needs 'filename'", n.plugin_type)))?;
                 let face_normals = n.bool("face_normals", false)?;
                 let path = self.resolve_from(&n.loc, &file);
-let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } else { crate::mesh_io::load_ply(&path) }
-                    .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
+let mut data = match n.plugin_type.as_str() {
+                    "obj" => crate::mesh_io::load_obj(&path),
+                    "ply" => crate::mesh_io::load_ply(&path),
+                    _ => crate::serialized::load_serialized(&path, n.int("shape_index", 0)?),
+                }
+                .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
                 // Mitsuba's OBJ loader flips v unless told not to (load_obj flips, as the default)
                 if n.plugin_type == "obj" && !n.bool("flip_tex_coords", true)? {
                     if let Some(uvs) = data.uvs.as_mut() {
@@ -681,10 +980,10 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
                         }
                     }
                 }
-                let valid: &[&str] = if n.plugin_type == "obj" {
-                    &["filename", "face_normals", "flip_normals", "to_world", "flip_tex_coords"]
-                } else {
-                    &["filename", "face_normals", "flip_normals", "to_world"]
+                let valid: &[&str] = match n.plugin_type.as_str() {
+                    "obj" => &["filename", "face_normals", "flip_normals", "to_world", "flip_tex_coords"],
+                    "ply" => &["filename", "face_normals", "flip_normals", "to_world"],
+                    _ => &["filename", "shape_index", "face_normals", "flip_normals", "to_world"],
                 };
                 n.check_unused(valid)?;
                 Geometry::mesh(data, to_world, face_normals, flip)
@@ -699,6 +998,14 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
                 n.check_unused(&["center", "radius", "to_world", "flip_normals"])?;
                 Geometry::sphere(center, radius, to_world, flip)
             }
+            "cylinder" => {
+                let p0 = n.point("p0", Vec3::ZERO)?;
+                let p1 = n.point("p1", Vec3::Z)?;
+                let radius = n.float("radius", 1.0)?;
+                n.check_unused(&["p0", "p1", "radius", "to_world", "flip_normals"])?;
+                Geometry::cylinder(p0, p1, radius, to_world, flip)
+                    .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?
+            }
             "rectangle" | "cube" | "disk" => {
                 n.check_unused(&["to_world", "flip_normals"])?;
                 match n.plugin_type.as_str() {
@@ -710,7 +1017,7 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
             other => {
                 return Err(SceneError::new(
                     Some(n.loc.clone()),
-                    format!("shape '{other}' is not supported (supported: obj, ply, sphere, rectangle, cube, disk)"),
+                    format!("shape '{other}' is not supported (supported: obj, ply, serialized, sphere, rectangle, cube, disk, cylinder, shapegroup, instance, merge)"),
                 ))
             }
         };
@@ -722,8 +1029,11 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
                 "bsdf" => {
                     let b = self.bsdf(c)?;
                     parts.bsdfs.push(b);
+                    self.file_mesh_attributes(parts.bsdfs.len() as u32 - 1);
                     bsdf = Some(parts.bsdfs.len() as u32 - 1);
                 }
+                "medium" => {}
+                "ref" if matches!(c.name.as_deref(), Some("interior" | "exterior")) => {}
                 "ref" => {
                     let id = c.id.clone().unwrap_or_default();
                     match self.bsdf_ids.get(&id) {
@@ -741,8 +1051,7 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
                             ),
                         ));
                     }
-                    let radiance = crate::emitters::light_rgb(c, "radiance")?;
-                    c.check_unused(&["radiance"])?;
+                    let radiance = self.area_radiance(c)?;
                     parts.lights.push(Light::Area {
                         shape: shape_index,
                         radiance,
@@ -770,9 +1079,166 @@ let mut data = if n.plugin_type == "obj" { crate::mesh_io::load_obj(&path) } els
                 parts.bsdfs.len() as u32 - 1
             }
         };
+        self.check_mesh_attributes(bsdf, &geom, &n.loc)?;
         parts.geometry.push(geom);
         parts.shape_bsdf.push(bsdf);
         parts.shape_light.push(light);
+        let sm = parts.media.attached(n, true)?.0;
+        parts.media.shape_media.push(sm);
+        Ok(())
+    }
+}
+
+impl Builder {
+    /// Mitsuba's `shapegroup`: builds its shapes (in the group's space, BSDFs in the scene's
+    /// list) and one BVH over them, kept under its id for `instance`s; nothing is rendered
+    /// until instanced.
+    fn shapegroup(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        n.check_unused(&[])?;
+        let mut gp = Parts {
+            geometry: vec![],
+            shape_bsdf: vec![],
+            shape_light: vec![],
+            bsdfs: std::mem::take(&mut parts.bsdfs),
+            lights: vec![],
+            media: Default::default(),
+        };
+        let mut result = Ok(());
+        for c in &n.children {
+            result = self.group_member(c, &mut gp);
+            if result.is_err() {
+                break;
+            }
+        }
+        parts.bsdfs = std::mem::take(&mut gp.bsdfs);
+        result?;
+        if !gp.lights.is_empty() {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                "Instancing of emitters is not supported (a shape in a shapegroup cannot carry an emitter)",
+            ));
+        }
+        let group = Arc::new(ShapeGroup::new(gp.geometry, gp.shape_bsdf));
+        if let Some(id) = &n.id {
+            self.groups.insert(id.clone(), group);
+        }
+        Ok(())
+    }
+
+    /// One nested element of a `shapegroup`: a shape without emitters (Mitsuba's errors).
+    fn group_member(&mut self, c: &Node, gp: &mut Parts) -> Result<()> {
+        let err = |m: &str| Err(SceneError::new(Some(c.loc.clone()), m));
+        if c.tag != "shape" {
+            return err(&format!(
+                "<{}> cannot be nested in a shapegroup (only shapes can)",
+                c.tag
+            ));
+        }
+        match c.plugin_type.as_str() {
+            "shapegroup" => return err("Nested ShapeGroup is not permitted"),
+            "instance" => return err("Nested instancing is not permitted"),
+            _ => {}
+        }
+        if c.children.iter().any(|e| e.tag == "emitter") {
+            return err("Instancing of emitters is not supported (a shape in a shapegroup cannot carry an emitter)");
+        }
+        self.shape(c, gp)
+    }
+
+    /// Mitsuba's `merge` (3.5+): its nested shapes, with the triangle meshes that share a BSDF
+    /// (and have no emitter, and the same normal / texture-coordinate layout and
+    /// `flip_normals`) concatenated into one mesh each; other shapes are kept as they are.
+    /// As in Mitsuba the kept shapes come first, then the merged meshes. Same image as
+    /// without `merge`; fewer, larger meshes.
+    fn merge(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        n.check_unused(&[])?;
+        let start = parts.geometry.len();
+        for c in &n.children {
+            if c.tag != "shape" || c.plugin_type == "shapegroup" {
+                return Err(SceneError::new(
+                    Some(c.loc.clone()),
+                    format!(
+                        "<{} type=\"{}\"> cannot be nested in a merge (only shapes can; shapegroups belong at the top level)",
+                        c.tag, c.plugin_type
+                    ),
+                ));
+            }
+            self.shape(c, parts)?;
+        }
+        let geometry: Vec<Geometry> = parts.geometry.drain(start..).collect();
+        let bsdfs: Vec<u32> = parts.shape_bsdf.drain(start..).collect();
+        let lights: Vec<Option<u32>> = parts.shape_light.drain(start..).collect();
+        let media: Vec<crate::media::ShapeMedia> = parts.media.shape_media.drain(start..).collect();
+        // (bsdf, layout) → meshes, in order of first appearance
+        let mut groups: Vec<((u32, (bool, bool, bool)), Vec<Geometry>)> = Vec::new();
+        for (((g, bsdf), light), sm) in geometry.into_iter().zip(bsdfs).zip(lights).zip(media) {
+            // shapes that bound a medium keep their own identity
+            let key = if sm.is_transition() || sm != Default::default() {
+                None
+            } else {
+                g.merge_key()
+            };
+            match (light, key) {
+                (None, Some(k)) => match groups.iter_mut().find(|(key, _)| *key == (bsdf, k)) {
+                    Some((_, list)) => list.push(g),
+                    None => groups.push(((bsdf, k), vec![g])),
+                },
+                _ => {
+                    if let Some(li) = light {
+                        if let Light::Area { shape, .. } = &mut parts.lights[li as usize] {
+                            *shape = parts.geometry.len() as u32;
+                        }
+                    }
+                    parts.geometry.push(g);
+                    parts.shape_bsdf.push(bsdf);
+                    parts.shape_light.push(light);
+                    parts.media.shape_media.push(sm);
+                }
+            }
+        }
+        for ((bsdf, _), list) in groups {
+            let merged = Geometry::merge_meshes(list)
+                .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
+            parts.geometry.push(merged);
+            parts.shape_bsdf.push(bsdf);
+            parts.shape_light.push(None);
+            parts.media.shape_media.push(Default::default());
+        }
+        Ok(())
+    }
+
+    /// Mitsuba's `instance`: `<ref id=…>` to a shapegroup, placed by `to_world`. Adds one scene
+    /// shape per group shape (sharing the group's BVH; see `geometry`'s module docs).
+    fn instance(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+        let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        n.check_unused(&["to_world"])?;
+        let mut group = None;
+        for c in &n.children {
+            if c.tag != "ref" || group.is_some() {
+                return Err(SceneError::new(
+                    Some(c.loc.clone()),
+                    "Only a shapegroup can be specified in an instance (one <ref id=…/>)",
+                ));
+            }
+            match self.groups.get(c.id.as_deref().unwrap_or_default()) {
+                Some(g) => group = Some(g.clone()),
+                None => return Err(self.bad_ref(c, "shapegroup")),
+            }
+        }
+        let Some(group) = group else {
+            return Err(SceneError::new(
+                Some(n.loc.clone()),
+                "A reference to a 'shapegroup' must be specified (<ref id=…/>)",
+            ));
+        };
+        let slots = Geometry::instance(&group, to_world)
+            .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
+        for (g, &bsdf) in slots.into_iter().zip(&group.bsdfs) {
+            parts.geometry.push(g);
+            parts.shape_bsdf.push(bsdf);
+            parts.shape_light.push(None);
+            parts.media.shape_media.push(Default::default());
+        }
         Ok(())
     }
 }

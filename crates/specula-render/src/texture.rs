@@ -302,6 +302,10 @@ impl Texture for Bitmap {
         self.lookup(sp.uv)
     }
 
+    fn resolution(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
     /// Luminance of the interpolated colour (the value itself for 1-channel data).
     fn eval_1(&self, sp: &ShadingPoint) -> f32 {
         let c = self.lookup(sp.uv);
@@ -316,6 +320,91 @@ impl Texture for Bitmap {
     fn mean(&self) -> Rgb {
         self.mean
     }
+
+    fn eval_1_grad(&self, sp: &ShadingPoint) -> Option<Vec2> {
+        Some(self.gradient(sp.uv))
+    }
+
+    fn channels(&self) -> usize {
+        self.channels
+    }
+}
+
+impl Bitmap {
+    /// The scalar value (luminance, or the value of 1-channel data) of texel (x, y).
+    #[inline]
+    fn texel_1(&self, x: usize, y: usize) -> f32 {
+        let c = self.texel(x, y);
+        if self.channels == 1 {
+            c.r()
+        } else {
+            c.luminance()
+        }
+    }
+
+    /// Mitsuba's `eval_1_grad`: the exact derivative in (u, v) of the bilinear interpolant of
+    /// the texels' scalar values (zero with nearest filtering). As in Mitsuba 3.9.1 the pixel
+    /// gradient is mapped through the transposed linear part of `to_uv` and *then* scaled by
+    /// the resolution (the same as the chain rule for square images and axis-aligned maps).
+    pub fn gradient(&self, uv: Vec2) -> Vec2 {
+        if self.filter == FilterType::Nearest {
+            return Vec2::ZERO;
+        }
+        let uv = apply_uv(&self.to_uv, uv);
+        let (w, h) = (self.width as i64, self.height as i64);
+        let px = uv.x * self.width as f32 - 0.5;
+        let py = uv.y * self.height as f32 - 0.5;
+        let (fx, fy) = (px.floor(), py.floor());
+        let (w1x, w1y) = (px - fx, py - fy);
+        let (w0x, w0y) = (1.0 - w1x, 1.0 - w1y);
+        let (ix, iy) = (fx as i64, fy as i64);
+        let x0 = self.wrap.wrap(ix, w);
+        let x1 = self.wrap.wrap(ix + 1, w);
+        let y0 = self.wrap.wrap(iy, h);
+        let y1 = self.wrap.wrap(iy + 1, h);
+        let (f00, f10) = (self.texel_1(x0, y0), self.texel_1(x1, y0));
+        let (f01, f11) = (self.texel_1(x0, y1), self.texel_1(x1, y1));
+        let dx = w0y * (f10 - f00) + w1y * (f11 - f01);
+        let dy = w0x * (f01 - f00) + w1x * (f11 - f10);
+        let m = &self.to_uv;
+        Vec2::new(
+            (m.x_axis.x * dx + m.x_axis.y * dy) * self.width as f32,
+            (m.y_axis.x * dx + m.y_axis.y * dy) * self.height as f32,
+        )
+    }
+}
+
+/// Mitsuba's `mesh_attribute`: a vertex or face attribute of the mesh that was hit (`name` =
+/// `vertex_…` or `face_…`, e.g. `vertex_color` from a PLY file's `r g b` properties), times
+/// `scale` (default 1). Vertex attributes are interpolated with the hit's barycentrics. The
+/// scene loader checks that every shape a material with this texture is attached to has the
+/// attribute with 1 or 3 channels (Mitsuba fails at render time). Deviations: `eval_1` of a
+/// 3-channel attribute is its luminance (Mitsuba refuses it); the `mean` (used only to balance
+/// lobe sampling) is `scale`·0.5, as the texture has no data of its own.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshAttributeTexture {
+    pub name: String,
+    pub scale: f32,
+}
+
+impl Texture for MeshAttributeTexture {
+    #[inline]
+    fn eval(&self, sp: &ShadingPoint) -> Rgb {
+        match sp.surface {
+            Some(s) => s
+                .attribute(&self.name, sp.prim, sp.bary)
+                .map_or(Rgb::ZERO, |v| v * self.scale),
+            None => Rgb::ZERO,
+        }
+    }
+
+    fn mean(&self) -> Rgb {
+        Rgb::splat(0.5 * self.scale)
+    }
+
+    fn mesh_attribute(&self) -> Option<&str> {
+        Some(&self.name)
+    }
 }
 
 #[cfg(test)]
@@ -326,12 +415,123 @@ mod tests {
         specula_testdata::shared("scenes/assets/grid.png")
     }
 
-    fn sp(u: f32, v: f32) -> ShadingPoint {
+    fn sp(u: f32, v: f32) -> ShadingPoint<'static> {
         ShadingPoint::at_uv(u, v)
     }
 
     fn close(a: Rgb, b: [f32; 3], tol: f32) -> bool {
         (0..3).all(|i| (a[i] - b[i]).abs() <= tol * b[i].abs().max(1e-3))
+    }
+
+    /// A 3-column, 2-row linear bitmap from row-major values.
+    fn small(vals: &[f32], channels: usize, filter: FilterType, wrap: WrapMode, m: Mat4) -> Bitmap {
+        let img = Image {
+            width: 3,
+            height: 2,
+            channels,
+            data: vals.to_vec(),
+        };
+        Bitmap::from_image(&img, false, filter, wrap, true, uv_transform(&m))
+    }
+
+    #[test]
+    fn bitmap_gradient_matches_mitsuba() {
+        // Mitsuba 3.9.1 scalar_rgb: a 2×3 `bitmap` (raw) of these RGB values, eval_1_grad(si)
+        let rgb = [
+            0.1, 0.5, 0.9, 0.3, 0.2, 0.7, 0.8, 0.8, 0.1, 0.0, 0.4, 0.6, 0.5, 0.5, 0.5, 0.2, 0.9,
+            0.3,
+        ];
+        let cases: [(WrapMode, (f32, f32), (f32, f32)); 9] = [
+            (WrapMode::Repeat, (0.5, 0.5), (1.04994, 0.485297)),
+            (WrapMode::Repeat, (0.1, 0.2), (-0.938882, 0.199755)),
+            (WrapMode::Repeat, (0.95, 0.9), (-1.06989, 0.134252)),
+            (WrapMode::Repeat, (0.4, 0.74), (0.490479, 0.271048)),
+            (WrapMode::Repeat, (1.3, -0.2), (0.404779, -0.0567981)),
+            (WrapMode::Clamp, (0.1, 0.2), (0.0, 0.0)),
+            (WrapMode::Clamp, (0.4, 0.74), (0.490479, 0.271048)),
+            (WrapMode::Mirror, (1.3, -0.2), (-1.47639, 0.0)),
+            (WrapMode::Mirror, (0.95, 0.9), (0.0, 0.0)),
+        ];
+        for (wrap, (u, v), (gu, gv)) in cases {
+            let t = small(&rgb, 3, FilterType::Bilinear, wrap, Mat4::IDENTITY);
+            let g = t.eval_1_grad(&sp(u, v)).unwrap();
+            assert!(
+                (g - Vec2::new(gu, gv)).abs().max_element() < 1e-4,
+                "{wrap:?} ({u}, {v}): {g}, Mitsuba ({gu}, {gv})"
+            );
+            // nearest filtering: piecewise constant
+            let n = small(&rgb, 3, FilterType::Nearest, wrap, Mat4::IDENTITY);
+            assert_eq!(n.eval_1_grad(&sp(u, v)), Some(Vec2::ZERO));
+        }
+        // to_uv = scale(2, 3, 1)·rotate(z, 30°): Mitsuba (−2.23804, 0.139777) at (0.3, 0.4)
+        let m =
+            Mat4::from_scale(Vec3::new(2.0, 3.0, 1.0)) * Mat4::from_rotation_z(30f32.to_radians());
+        let g =
+            small(&rgb, 3, FilterType::Bilinear, WrapMode::Repeat, m).gradient(Vec2::new(0.3, 0.4));
+        assert!(
+            (g - Vec2::new(-2.23804, 0.139777)).abs().max_element() < 1e-4,
+            "{g}"
+        );
+        // one channel: Mitsuba (0.75, 0) at (0.3, 0.4)
+        let grey = [0.1, 0.5, 0.9, 0.3, 0.2, 0.7];
+        let t = small(
+            &grey,
+            1,
+            FilterType::Bilinear,
+            WrapMode::Repeat,
+            Mat4::IDENTITY,
+        );
+        assert!(
+            (t.gradient(Vec2::new(0.3, 0.4)) - Vec2::new(0.75, 0.0))
+                .abs()
+                .max_element()
+                < 1e-5
+        );
+        assert_eq!(t.channels(), 1);
+        // the gradient is the derivative of eval_1 (central differences away from texel rows)
+        let t = small(
+            &rgb,
+            3,
+            FilterType::Bilinear,
+            WrapMode::Repeat,
+            Mat4::IDENTITY,
+        );
+        let (u, v, h) = (0.42f32, 0.61f32, 1e-3f32);
+        let du = (t.eval_1(&sp(u + h, v)) - t.eval_1(&sp(u - h, v))) / (2.0 * h);
+        let dv = (t.eval_1(&sp(u, v + h)) - t.eval_1(&sp(u, v - h))) / (2.0 * h);
+        let g = t.gradient(Vec2::new(u, v));
+        assert!(
+            (g - Vec2::new(du, dv)).abs().max_element() < 2e-3,
+            "{g} vs ({du}, {dv})"
+        );
+    }
+
+    #[derive(Debug)]
+    struct Attrs;
+    impl specula_bsdf::SurfaceData for Attrs {
+        fn attribute(&self, name: &str, prim: u32, bary: Vec2) -> Option<Rgb> {
+            (name == "vertex_color").then(|| Rgb::new(prim as f32, bary.x, bary.y))
+        }
+    }
+
+    #[test]
+    fn mesh_attribute_reads_the_shading_point() {
+        let t = MeshAttributeTexture {
+            name: "vertex_color".into(),
+            scale: 2.0,
+        };
+        assert_eq!(t.mesh_attribute(), Some("vertex_color"));
+        let mut p = ShadingPoint::at_uv(0.1, 0.2);
+        assert_eq!(t.eval(&p), Rgb::ZERO); // no surface data
+        p.surface = Some(&Attrs);
+        p.prim = 3;
+        p.bary = Vec2::new(0.25, 0.5);
+        assert_eq!(t.eval(&p), Rgb::new(6.0, 0.5, 1.0));
+        let other = MeshAttributeTexture {
+            name: "face_color".into(),
+            scale: 1.0,
+        };
+        assert_eq!(other.eval(&p), Rgb::ZERO);
     }
 
     #[test]

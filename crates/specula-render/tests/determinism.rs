@@ -127,3 +127,36 @@ fn tracing_paths_does_not_allocate() {
         );
     }
 }
+
+#[test]
+fn every_sampler_gives_the_same_image_whatever_the_thread_count() {
+    use specula_render::sampler::{SamplerKind, SamplerSettings};
+    let Some(mut s) = scene("cbox.xml", &[("resx", "48"), ("resy", "40")]) else {
+        return;
+    };
+    let stop = AtomicBool::new(false);
+    for name in SamplerKind::NAMES {
+        s.sampler = SamplerSettings::new(SamplerKind::parse(name).unwrap(), 4);
+        let run = |threads| {
+            render(
+                &s,
+                &RenderOptions {
+                    spp: 4,
+                    seed: 1,
+                    threads,
+                },
+                &stop,
+                &|_, _| {},
+            )
+        };
+        let (one, two) = (run(1), run(2));
+        assert_eq!(one.spp, s.sampler.sample_count(4));
+        assert!(
+            one.rgb
+                .iter()
+                .zip(&two.rgb)
+                .all(|(a, b)| a.to_bits() == b.to_bits()),
+            "{name}: thread count changed the image"
+        );
+    }
+}

@@ -2,9 +2,14 @@
 //! virtual calls or allocation.
 
 pub mod blend;
+pub mod bumpmap;
 pub mod conductor;
 pub mod dielectric;
 pub mod diffuse;
+pub mod mask;
+pub mod normalmap;
+pub mod null;
+pub mod perturbed;
 pub mod plastic;
 pub mod roughconductor;
 pub mod roughdielectric;
@@ -14,9 +19,13 @@ pub mod thindielectric;
 pub mod twosided;
 
 pub use blend::Blend;
+pub use bumpmap::BumpMap;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use mask::Mask;
+pub use normalmap::NormalMap;
+pub use null::Null;
 pub use plastic::Plastic;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
@@ -49,6 +58,10 @@ pub enum Bsdf {
     Measured(std::sync::Arc<crate::measured::rgl::Rgl>),
     /// A MERL table (Matusik et al. 2003), Specula's `merl` plugin.
     Merl(crate::measured::merl::Merl),
+    BumpMap(Box<BumpMap>),
+    NormalMap(Box<NormalMap>),
+    Mask(Box<Mask>),
+    Null(Null),
 }
 
 macro_rules! dispatch {
@@ -67,6 +80,10 @@ macro_rules! dispatch {
             Bsdf::Blend($b) => $e,
             Bsdf::Measured($b) => $e,
             Bsdf::Merl($b) => $e,
+            Bsdf::BumpMap($b) => $e,
+            Bsdf::NormalMap($b) => $e,
+            Bsdf::Mask($b) => $e,
+            Bsdf::Null($b) => $e,
         }
     };
 }
@@ -88,6 +105,10 @@ impl Bsdf {
             Bsdf::Blend(_) => "blendbsdf",
             Bsdf::Measured(_) => "measured",
             Bsdf::Merl(_) => "merl",
+            Bsdf::BumpMap(_) => "bumpmap",
+            Bsdf::NormalMap(_) => "normalmap",
+            Bsdf::Mask(_) => "mask",
+            Bsdf::Null(_) => "null",
         }
     }
 }

@@ -6,16 +6,24 @@
 //! evaluated to matrices, Mitsuba 0.6 scenes (`version` < 2.0.0) are upgraded the way Mitsuba 3
 //! upgrades them, and every node and property remembers the `file:line:col` it came from.
 //! `<ref>` elements stay in the tree (tag `"ref"`) for the scene builder to resolve.
+//! `<spectrum>` values (constants, wavelength:value lists, `.spd` files, spectrum plugins) are
+//! kept as [`Spectrum`]s and become RGB when read, by the rule of the parameter's use
+//! ([`Node::rgb_opt`] for reflectances, [`Node::emission_rgb`] for emitters,
+//! [`Node::color_opt`] with [`Usage::Unbounded`] for IOR-like values; see [`spectrum`]).
 //!
 //! The scene builder reads properties through the typed accessors on [`Node`] (which record
 //! what was read) and finishes each plugin with [`Node::check_unused`], so that a misspelt or
 //! unsupported parameter is an error rather than a silently ignored value.
 
 mod parse;
+pub mod spectrum;
 mod transform;
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod resolver_tests;
 
 use crate::core::{Loc, Result, SceneError};
 use glam::{Mat4, Vec3};
@@ -23,6 +31,7 @@ use std::cell::Cell;
 use std::fmt;
 
 pub use parse::{load_scene, parse_scene_str};
+pub use spectrum::{Spectrum, Usage};
 
 /// The value of a property element.
 #[derive(Clone, Debug, PartialEq)]
@@ -37,8 +46,9 @@ pub enum PropValue {
     Str(String),
     /// `<rgb>` (a single value is splatted to all three channels).
     Rgb([f32; 3]),
-    /// `<spectrum value="v"/>`: a constant spectrum (the only kind supported in RGB mode).
-    Spectrum(f32),
+    /// `<spectrum>`: a constant, wavelength:value pairs (inline or from an `.spd` file) or a
+    /// spectrum plugin (`blackbody`, `d65`, …); see [`spectrum`] for how each becomes RGB.
+    Spectrum(Spectrum),
     /// `<point>`.
     Point(Vec3),
     /// `<vector>`.
@@ -72,7 +82,7 @@ impl fmt::Display for PropValue {
             PropValue::Bool(v) => write!(f, "{v}"),
             PropValue::Str(v) => write!(f, "\"{v}\""),
             PropValue::Rgb([r, g, b]) => write!(f, "[{r}, {g}, {b}]"),
-            PropValue::Spectrum(v) => write!(f, "{v}"),
+            PropValue::Spectrum(s) => write!(f, "{s}"),
             PropValue::Point(v) | PropValue::Vector(v) => write!(f, "[{}, {}, {}]", v.x, v.y, v.z),
             PropValue::Transform(_) => f.write_str("a 4x4 matrix"),
         }
@@ -250,22 +260,41 @@ impl Node {
             .unwrap_or_else(|| default.to_string()))
     }
 
-    /// A colour: `<rgb>`, or a constant `<spectrum>` or `<float>` (splatted to three channels).
+    /// A colour read as a reflectance (Mitsuba's `get_texture`): `<rgb>`, `<float>` (grey) or
+    /// `<spectrum>`, converted as [`Usage::Reflectance`] (wavelength lists clamped to [0, 1]).
     pub fn rgb_opt(&self, name: &str) -> Result<Option<[f32; 3]>> {
-        match self.prop(name) {
-            None => Ok(None),
-            Some(p) => match p.value {
-                PropValue::Rgb(v) => Ok(Some(v)),
-                PropValue::Spectrum(v) => Ok(Some([v; 3])),
-                PropValue::Float(v) => Ok(Some([v as f32; 3])),
-                _ => Err(self.type_error(p, "rgb, spectrum or float")),
-            },
-        }
+        self.color_opt(name, Usage::Reflectance)
     }
 
     /// A colour (see [`Node::rgb_opt`]), `default` when absent.
     pub fn rgb(&self, name: &str, default: [f32; 3]) -> Result<[f32; 3]> {
         Ok(self.rgb_opt(name)?.unwrap_or(default))
+    }
+
+    /// An emitter's radiance, intensity or irradiance (Mitsuba's `get_emissive_texture`):
+    /// `<rgb>`, `<float>` or `<spectrum>` converted as [`Usage::Emission`] (not D65-weighted;
+    /// a constant spectrum becomes v · XYZ→sRGB(1, 1, 1)); `default` when absent.
+    pub fn emission_rgb(&self, name: &str, default: [f32; 3]) -> Result<[f32; 3]> {
+        Ok(self.color_opt(name, Usage::Emission)?.unwrap_or(default))
+    }
+
+    /// A colour read the way `usage` says (the three accessors above, and
+    /// [`Usage::Unbounded`] for IOR-like values).
+    pub fn color_opt(&self, name: &str, usage: Usage) -> Result<Option<[f32; 3]>> {
+        match self.prop(name) {
+            None => Ok(None),
+            Some(p) => match &p.value {
+                PropValue::Rgb(v) => Ok(Some(*v)),
+                PropValue::Spectrum(s) => s.to_rgb(usage).map(Some).map_err(|why| {
+                    SceneError::new(
+                        Some(p.loc.clone()),
+                        format!("parameter '{}' of {}: {why}", p.name, self.describe()),
+                    )
+                }),
+                PropValue::Float(v) => Ok(Some([*v as f32; 3])),
+                _ => Err(self.type_error(p, "rgb, spectrum or float")),
+            },
+        }
     }
 
     /// A `<point>` (Mitsuba 3 does not distinguish `<point>` from `<vector>`; both are accepted).

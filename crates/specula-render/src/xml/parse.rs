@@ -1,6 +1,7 @@
 //! Parsing: XML → [`Node`] tree, with parameter substitution, includes, transforms and the
 //! Mitsuba 0.6 upgrade.
 
+use super::spectrum::{Sampled, Spectrum, CIE_MAX, CIE_MIN};
 use super::transform as xf;
 use super::{Node, Prop, PropValue};
 use crate::core::{Loc, Result, SceneError};
@@ -44,7 +45,7 @@ const PROPERTY_TAGS: &[&str] = &[
     "transform",
 ];
 /// Other elements valid inside the scene or a plugin.
-const OTHER_TAGS: &[&str] = &["ref", "default", "include"];
+const OTHER_TAGS: &[&str] = &["ref", "default", "include", "path", "alias"];
 /// Elements valid only inside `<transform>`.
 const TRANSFORM_OPS: &[&str] = &["translate", "rotate", "scale", "lookat", "matrix"];
 
@@ -118,7 +119,180 @@ fn parse_main(
     };
     parser.children(&ctx, root, &mut node)?;
     parser.check_overrides(&root_loc)?;
+    resolve_aliases(&mut node, &parser.aliases);
+    inline_definitions(&mut node)?;
+    order_by_references(&mut node)?;
     Ok(node)
+}
+
+/// Ids referenced by `<ref>`s anywhere inside `n`.
+fn referenced_ids(n: &Node) -> Vec<&str> {
+    let mut out = vec![];
+    let mut stack = vec![n];
+    while let Some(m) = stack.pop() {
+        if m.tag == "ref" {
+            if let Some(id) = &m.id {
+                out.push(id.as_str());
+            }
+        }
+        stack.extend(m.children.iter());
+    }
+    out
+}
+
+/// Mitsuba lets a `<ref>` name a plugin declared later in the file (it instantiates plugins
+/// in dependency order). The scene builder reads the top level in order, so the top-level
+/// plugins are reordered here: each after the plugins it references, otherwise in document
+/// order. A reference cycle is an error.
+fn order_by_references(root: &mut Node) -> Result<()> {
+    let n = root.children.len();
+    let index: HashMap<&str, usize> = root
+        .children
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| c.id.as_deref().filter(|_| c.tag != "ref").map(|id| (id, i)))
+        .collect();
+    let deps: Vec<Vec<usize>> = root
+        .children
+        .iter()
+        .map(|c| {
+            referenced_ids(c)
+                .into_iter()
+                .filter_map(|id| index.get(id).copied())
+                .collect()
+        })
+        .collect();
+    if deps
+        .iter()
+        .enumerate()
+        .all(|(i, d)| d.iter().all(|&j| j < i))
+    {
+        return Ok(()); // already in order (the common case)
+    }
+    // iterative depth-first topological sort, visiting in document order
+    #[derive(Clone, Copy, PartialEq)]
+    enum Mark {
+        New,
+        Open,
+        Done,
+    }
+    let mut mark = vec![Mark::New; n];
+    let mut order = Vec::with_capacity(n);
+    for start in 0..n {
+        if mark[start] != Mark::New {
+            continue;
+        }
+        let mut stack = vec![(start, 0usize)];
+        mark[start] = Mark::Open;
+        while let Some(&mut (i, ref mut next)) = stack.last_mut() {
+            if let Some(&j) = deps[i].get(*next) {
+                *next += 1;
+                match mark[j] {
+                    Mark::New => {
+                        mark[j] = Mark::Open;
+                        stack.push((j, 0));
+                    }
+                    Mark::Open if j == i => {}
+                    Mark::Open => {
+                        let c = &root.children[i];
+                        return Err(SceneError::new(
+                            Some(c.loc.clone()),
+                            format!(
+                                "{} references '{}' (declared at {}), which depends on it in turn",
+                                c.describe(),
+                                root.children[j].id.as_deref().unwrap_or(""),
+                                root.children[j].loc
+                            ),
+                        ));
+                    }
+                    Mark::Done => {}
+                }
+            } else {
+                mark[i] = Mark::Done;
+                order.push(i);
+                stack.pop();
+            }
+        }
+    }
+    let mut slots: Vec<Option<Node>> = std::mem::take(&mut root.children)
+        .into_iter()
+        .map(Some)
+        .collect();
+    root.children = order.into_iter().filter_map(|i| slots[i].take()).collect();
+    Ok(())
+}
+
+/// Rewrites every `<ref>` to an alias so that it names the aliased plugin's own id.
+fn resolve_aliases(node: &mut Node, aliases: &[(String, String, Loc)]) {
+    if aliases.is_empty() {
+        return;
+    }
+    let target = |id: &str| {
+        let mut id = id.to_string();
+        // aliases of aliases: follow the chain (bounded by the number of aliases)
+        for _ in 0..=aliases.len() {
+            match aliases.iter().find(|(a, _, _)| *a == id) {
+                Some((_, t, _)) => id = t.clone(),
+                None => break,
+            }
+        }
+        id
+    };
+    let mut stack = vec![node];
+    while let Some(n) = stack.pop() {
+        if n.tag == "ref" {
+            if let Some(id) = &n.id {
+                n.id = Some(target(id));
+            }
+        }
+        stack.extend(n.children.iter_mut());
+    }
+}
+
+/// Plugin kinds that a scene declares once at the top level (with an `id`) and uses through
+/// `<ref>` elsewhere, and that are not objects of the scene themselves: each such `<ref>` is
+/// replaced by a copy of the declaration (named by the ref's `name`), and the declarations
+/// leave the top level. Top-level `area` emitters are treated the same way (Mitsuba attaches
+/// them to the shapes that reference them). BSDFs, textures, shapes, other emitters and media
+/// keep their refs: the scene builder shares those.
+const DEFINITION_TAGS: &[&str] = &["sampler", "film", "rfilter", "phase", "volume", "spectrum"];
+
+fn inline_definitions(root: &mut Node) -> Result<()> {
+    let mut defs: HashMap<String, Node> = HashMap::new();
+    let mut kept = Vec::with_capacity(root.children.len());
+    for c in std::mem::take(&mut root.children) {
+        // an `area` emitter exists only attached to the shapes that reference it
+        let is_area = c.tag == "emitter" && c.plugin_type == "area";
+        match &c.id {
+            Some(id) if DEFINITION_TAGS.contains(&c.tag.as_str()) || is_area => {
+                defs.insert(id.clone(), c);
+            }
+            _ => kept.push(c),
+        }
+    }
+    root.children = kept;
+    if defs.is_empty() {
+        return Ok(());
+    }
+    // iterative walk (no recursion: scenes may nest deeply)
+    let mut stack: Vec<&mut Node> = root.children.iter_mut().collect();
+    while let Some(n) = stack.pop() {
+        for c in n.children.iter_mut() {
+            if c.tag != "ref" {
+                continue;
+            }
+            let Some(def) = c.id.as_ref().and_then(|id| defs.get(id)) else {
+                continue;
+            };
+            let mut copy = def.clone();
+            copy.id = None;
+            copy.name = c.name.clone().or(copy.name);
+            copy.loc = def.loc.clone();
+            *c = copy;
+        }
+        stack.extend(n.children.iter_mut());
+    }
+    Ok(())
 }
 
 fn canonical(p: &Path) -> PathBuf {
@@ -199,6 +373,11 @@ struct Parser {
     include_stack: Vec<PathBuf>,
     /// The main scene's directory: includes fall back to it, as Mitsuba's file resolver does.
     main_dir: PathBuf,
+    /// Folders added by `<path value=…>`, the most recent first (Mitsuba's file resolver
+    /// prepends them, so the latest takes precedence).
+    search_paths: Vec<PathBuf>,
+    /// `<alias id="a" as="b"/>`: b → a.
+    aliases: Vec<(String, String, Loc)>,
     /// Plugin elements open around the one being parsed (see [`MAX_NESTING_DEPTH`]).
     depth: usize,
 }
@@ -365,6 +544,8 @@ impl Parser {
             ids: HashMap::new(),
             include_stack: Vec::new(),
             main_dir: main_dir.to_path_buf(),
+            search_paths: Vec::new(),
+            aliases: Vec::new(),
             depth: 0,
         })
     }
@@ -592,7 +773,28 @@ impl Parser {
                     t if TRANSFORM_OPS.contains(&t) => {
                         return Err(e.err(format!("<{t}> is only valid inside <transform>")));
                     }
-                    "alias" | "path" | "resource" | "tensor" => {
+                    "path" => {
+                        e.check_attrs(&["value"])?;
+                        self.add_search_path(ctx, &e)?;
+                    }
+                    "alias" => {
+                        e.check_attrs(&["id", "as"])?;
+                        let id = e.req("id")?.to_string();
+                        let alias = e.req("as")?.to_string();
+                        if let Some(prev) = self.ids.get(&alias) {
+                            return Err(e.err(format!(
+                                "<alias as=\"{alias}\">: id '{alias}' is already defined at {prev}"
+                            )));
+                        }
+                        if !self.ids.contains_key(&id) {
+                            return Err(e.err(format!(
+                                "<alias id=\"{id}\">: no plugin with id '{id}' is defined before it"
+                            )));
+                        }
+                        self.ids.insert(alias.clone(), e.loc.clone());
+                        self.aliases.push((alias, id, e.loc.clone()));
+                    }
+                    "resource" | "tensor" => {
                         return Err(e.err(format!("<{tag}> elements are not supported")));
                     }
                     "srgb" => {
@@ -696,7 +898,12 @@ impl Parser {
             }
             "string" => {
                 e.check_attrs(&["name", "value"])?;
-                PropValue::Str(e.req("value")?.to_string())
+                let v = e.req("value")?;
+                if e.get("name") == Some("filename") {
+                    PropValue::Str(self.resolve_file(ctx, v))
+                } else {
+                    PropValue::Str(v.to_string())
+                }
             }
             "rgb" => {
                 e.check_attrs(&["name", "value"])?;
@@ -713,27 +920,7 @@ impl Parser {
                     }
                 }
             }
-            "spectrum" => {
-                e.check_attrs(&["name", "value", "filename"])?;
-                const ONLY: &str = "only constant spectra (a single value, e.g. \
-                                    value=\"0.5\") are supported in RGB mode; use <rgb> for \
-                                    coloured values";
-                if e.get("filename").is_some() {
-                    return Err(e.err(format!("spectrum files are not supported: {ONLY}")));
-                }
-                let s = e.req("value")?;
-                if s.contains(':') {
-                    return Err(e.err(format!(
-                        "{}: wavelength:value lists are not supported: {ONLY}",
-                        e.describe()
-                    )));
-                }
-                let v = e.list("value", s)?;
-                if v.len() != 1 {
-                    return Err(e.err(format!("invalid value=\"{s}\" in {}: {ONLY}", e.describe())));
-                }
-                PropValue::Spectrum(v[0] as f32)
-            }
+            "spectrum" => PropValue::Spectrum(self.spectrum(ctx, xml, e)?),
             "point" | "vector" => {
                 e.check_attrs(&["name", "value", "x", "y", "z"])?;
                 let v = e.xyz(&["value"], 0.0)?.ok_or_else(|| {
@@ -757,6 +944,83 @@ impl Parser {
             other => unreachable!("not a property element: {other}"),
         };
         Ok(Prop::new(e.req("name")?, value, e.loc.clone()))
+    }
+
+    /// A `<spectrum>`: `value="v"`, `value="λ:v, …"`, `filename="x.spd"` (resolved like an
+    /// `<include>`: against the file's directory, the `<path>` folders, then the main
+    /// scene's), or a spectrum plugin
+    /// `<spectrum type="…">` with nested parameters (see [`super::spectrum`]).
+    fn spectrum(&mut self, ctx: &FileCtx, xml: roxmltree::Node, e: &Elem) -> Result<Spectrum> {
+        if let Some(kind) = e.get("type") {
+            e.check_attrs(&["name", "type"])?;
+            let mut node = Node {
+                tag: "spectrum".into(),
+                plugin_type: kind.to_string(),
+                id: None,
+                name: e.get("name").map(str::to_string),
+                props: Vec::new(),
+                children: Vec::new(),
+                loc: e.loc.clone(),
+            };
+            self.children(ctx, xml, &mut node)?;
+            return spectrum_plugin(&node);
+        }
+        e.check_attrs(&["name", "value", "filename"])?;
+        match (e.get("value"), e.get("filename")) {
+            (Some(_), Some(_)) | (None, None) => Err(e.err(format!(
+                "{} needs either a 'value' or a 'filename' attribute (not both)",
+                e.describe()
+            ))),
+            (Some(s), None) if !s.contains(':') => {
+                let v = e.list("value", s)?;
+                match v.as_slice() {
+                    [v] => Ok(Spectrum::Constant(*v)),
+                    _ => Err(e.err(format!(
+                        "invalid value=\"{s}\" in {}: expected one number or \
+                         wavelength:value pairs (e.g. \"400:0.1, 500:0.5\")",
+                        e.describe()
+                    ))),
+                }
+            }
+            (Some(s), None) => Sampled::parse_pairs(s)
+                .map(Spectrum::Sampled)
+                .map_err(|why| e.err(format!("invalid value in {}: {why}", e.describe()))),
+            (None, Some(filename)) => {
+                let rel = Path::new(filename);
+                let mut candidates = vec![ctx.dir.join(rel)];
+                if rel.is_relative() {
+                    for dir in self
+                        .search_paths
+                        .iter()
+                        .chain(std::iter::once(&self.main_dir))
+                    {
+                        let alt = dir.join(rel);
+                        if !candidates.contains(&alt) {
+                            candidates.push(alt);
+                        }
+                    }
+                }
+                let Some(path) = candidates.iter().find(|p| p.is_file()) else {
+                    let looked: Vec<String> =
+                        candidates.iter().map(|p| p.display().to_string()).collect();
+                    return Err(e.err(format!(
+                        "spectrum file '{filename}' not found (looked for {})",
+                        looked.join(" and ")
+                    )));
+                };
+                let text = std::fs::read_to_string(path).map_err(|err| {
+                    e.err(format!(
+                        "cannot read spectrum file '{}': {err}",
+                        path.display()
+                    ))
+                })?;
+                Sampled::parse_spd(&text)
+                    .map(Spectrum::Sampled)
+                    .map_err(|why| {
+                        e.err(format!("invalid spectrum file '{}': {why}", path.display()))
+                    })
+            }
+        }
     }
 
     /// Composes a `<transform>`'s operations: each left-multiplies the matrix so far.
@@ -824,14 +1088,71 @@ impl Parser {
         Ok(m)
     }
 
+    /// `<path value="dir"/>`: adds a folder to the file search path, as Mitsuba's parser does:
+    /// a relative folder is looked for relative to the file that declares it, then in the
+    /// search path (earlier `<path>`s, the main scene's folder); it must exist.
+    fn add_search_path(&mut self, ctx: &FileCtx, e: &Elem) -> Result<()> {
+        let value = e.req("value")?;
+        let p = Path::new(value);
+        let candidates: Vec<PathBuf> = if p.is_absolute() {
+            vec![p.to_path_buf()]
+        } else {
+            std::iter::once(&ctx.dir)
+                .chain(self.search_paths.iter())
+                .chain(std::iter::once(&self.main_dir))
+                .map(|d| d.join(p))
+                .collect()
+        };
+        let Some(dir) = candidates.iter().find(|c| c.is_dir()).cloned() else {
+            let looked: Vec<String> = candidates.iter().map(|c| c.display().to_string()).collect();
+            return Err(e.err(format!(
+                "<path value=\"{value}\">: folder not found (looked for {})",
+                looked.join(", ")
+            )));
+        };
+        let dir = std::path::absolute(&dir).unwrap_or(dir);
+        self.search_paths.retain(|d| d != &dir);
+        self.search_paths.insert(0, dir);
+        Ok(())
+    }
+
+    /// A `filename` parameter resolved as Mitsuba's file resolver does: relative to the file
+    /// that declares it, then each `<path>` folder (the most recent first), then the main
+    /// scene's folder. The first that exists is returned as an absolute path; when none
+    /// exists the name is returned unchanged (the plugin reports the missing file).
+    fn resolve_file(&self, ctx: &FileCtx, name: &str) -> String {
+        let p = Path::new(name);
+        if p.is_absolute() || name.is_empty() {
+            return name.to_string();
+        }
+        std::iter::once(&ctx.dir)
+            .chain(self.search_paths.iter())
+            .chain(std::iter::once(&self.main_dir))
+            .map(|d| d.join(p))
+            .find(|c| c.exists())
+            .map(|c| {
+                std::path::absolute(&c)
+                    .unwrap_or(c)
+                    .to_string_lossy()
+                    .into_owned()
+            })
+            .unwrap_or_else(|| name.to_string())
+    }
+
     fn include(&mut self, ctx: &FileCtx, e: &Elem, parent: &mut Node) -> Result<()> {
         let filename = e.req("filename")?;
         let rel = Path::new(filename);
         let mut candidates = vec![ctx.dir.join(rel)];
         if rel.is_relative() {
-            let alt = self.main_dir.join(rel);
-            if !candidates.contains(&alt) {
-                candidates.push(alt);
+            for dir in self
+                .search_paths
+                .iter()
+                .chain(std::iter::once(&self.main_dir))
+            {
+                let alt = dir.join(rel);
+                if !candidates.contains(&alt) {
+                    candidates.push(alt);
+                }
             }
         }
         let Some(path) = candidates.iter().find(|p| p.is_file()).cloned() else {
@@ -1005,4 +1326,119 @@ fn upgrade_node(node: &mut Node) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// A spectrum plugin (`<spectrum type="…">`) from its parsed parameters, with Mitsuba 3's
+/// parameter names and defaults.
+fn spectrum_plugin(n: &Node) -> Result<Spectrum> {
+    if let Some(c) = n.children.first() {
+        return Err(c.error(format!(
+            "<{}> cannot be nested in <spectrum type=\"{}\">",
+            c.tag, n.plugin_type
+        )));
+    }
+    let req = |name: &str| {
+        n.float_opt(name)?
+            .map(f64::from)
+            .ok_or_else(|| n.error(format!("spectrum '{}' needs '{name}'", n.plugin_type)))
+    };
+    // an rgb parameter of a spectrum plugin must be an <rgb> (as in Mitsuba)
+    let rgb = |name: &str| match n.prop(name) {
+        None => Ok(None),
+        Some(p) => match &p.value {
+            PropValue::Rgb(c) => Ok(Some(c.map(f64::from))),
+            other => Err(SceneError::new(
+                Some(p.loc.clone()),
+                format!(
+                    "parameter '{name}' of spectrum '{}': expected rgb, found {}",
+                    n.plugin_type,
+                    other.type_name()
+                ),
+            )),
+        },
+    };
+    let list = |name: &str| -> Result<Vec<f64>> {
+        let s = n
+            .string_opt(name)?
+            .ok_or_else(|| n.error(format!("spectrum '{}' needs '{name}'", n.plugin_type)))?;
+        s.split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|t| !t.is_empty())
+            .map(|t| {
+                t.parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| {
+                        n.error(format!(
+                            "'{name}' of spectrum '{}': '{t}' is not a number",
+                            n.plugin_type
+                        ))
+                    })
+            })
+            .collect()
+    };
+    let sampled = |r: std::result::Result<Sampled, String>| {
+        r.map(Spectrum::Sampled)
+            .map_err(|why| n.error(format!("spectrum '{}': {why}", n.plugin_type)))
+    };
+    let s = match n.plugin_type.as_str() {
+        "uniform" => {
+            let v = req("value")?;
+            n.check_unused(&["value"])?;
+            Spectrum::Uniform(v)
+        }
+        "d65" => {
+            let color = rgb("color")?.unwrap_or([1.0; 3]);
+            let scale = n.float("scale", 1.0)? as f64;
+            n.check_unused(&["color", "scale"])?;
+            Spectrum::D65 { color, scale }
+        }
+        "srgb" => {
+            let color = rgb("color")?.ok_or_else(|| n.error("spectrum 'srgb' needs 'color'"))?;
+            let unbounded = n.bool("unbounded", false)?;
+            n.check_unused(&["color", "unbounded"])?;
+            Spectrum::Srgb { color, unbounded }
+        }
+        "blackbody" => {
+            let temperature = req("temperature")?;
+            let lo = n.float("wavelength_min", CIE_MIN as f32)? as f64;
+            let hi = n.float("wavelength_max", CIE_MAX as f32)? as f64;
+            n.check_unused(&["temperature", "wavelength_min", "wavelength_max"])?;
+            if !(temperature > 0.0 && temperature.is_finite()) {
+                return Err(n.error(format!(
+                    "spectrum 'blackbody': the temperature must be positive (kelvin), got \
+                     {temperature}"
+                )));
+            }
+            if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
+                return Err(n.error(format!(
+                    "spectrum 'blackbody': wavelength_min ({lo}) must be below wavelength_max \
+                     ({hi})"
+                )));
+            }
+            Spectrum::Blackbody {
+                temperature,
+                range: [lo, hi],
+            }
+        }
+        "regular" => {
+            let lo = req("wavelength_min")?;
+            let hi = req("wavelength_max")?;
+            let values = list("values")?;
+            n.check_unused(&["wavelength_min", "wavelength_max", "values"])?;
+            sampled(Sampled::regular(lo, hi, values))?
+        }
+        "irregular" => {
+            let wl = list("wavelengths")?;
+            let values = list("values")?;
+            n.check_unused(&["wavelengths", "values"])?;
+            sampled(Sampled::new(wl, values))?
+        }
+        other => {
+            return Err(n.error(format!(
+                "spectrum type '{other}' is not supported (supported: uniform, d65, srgb, \
+                 blackbody, regular, irregular)"
+            )))
+        }
+    };
+    Ok(s)
 }

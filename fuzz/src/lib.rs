@@ -146,6 +146,17 @@ pub fn ply(data: &[u8]) {
     }
 }
 
+/// Mitsuba `.serialized` meshes (zlib-compressed): the first byte of the input picks the
+/// shape index (0–3), the rest is the file.
+pub fn serialized(data: &[u8]) {
+    let Some((&index, file)) = data.split_first() else {
+        return;
+    };
+    if let Ok(m) = specula_render::serialized::parse(file, (index % 4) as i64) {
+        exercise_mesh(m);
+    }
+}
+
 /// Evaluates and samples a BSDF in a few directions.
 fn exercise_bsdf(b: &Bsdf) {
     let ctx = BsdfContext::RADIANCE;

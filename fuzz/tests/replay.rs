@@ -14,6 +14,7 @@ const TARGETS: &[(&str, Target)] = &[
     ("overrides", specula_fuzz::overrides),
     ("obj", specula_fuzz::obj),
     ("ply", specula_fuzz::ply),
+    ("serialized", specula_fuzz::serialized),
     ("merl", specula_fuzz::merl),
     ("rgl", specula_fuzz::rgl),
     ("image", specula_fuzz::image),

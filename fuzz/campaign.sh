@@ -7,7 +7,7 @@ set -uo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 secs="${1:-600}"; shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(xml_scene pipeline overrides image obj ply spec rgl merl)
+[ ${#targets[@]} -gt 0 ] || targets=(xml_scene pipeline overrides image obj ply spec rgl merl serialized)
 bin="$here/target/x86_64-unknown-linux-gnu/release"
 mkdir -p "$here/logs"
 for t in "${targets[@]}"; do

@@ -30,6 +30,11 @@ each pipeline -path "$shared/scenes/*" -name 'mat_*.xml'
 each obj -name '*.obj'
 each ply -name '*.ply'
 each merl -name '*.binary'
+# serialized: the first byte picks the shape index
+while IFS= read -r -d '' f; do
+    mkdir -p "$here/corpus/serialized"
+    { printf '\000'; head -c "$MAX" "$f"; } > "$here/corpus/serialized/$(basename "$f")"
+done < <(find "$shared" -name '*.serialized' -type f -print0)
 each rgl -name '*.bsdf'
 each image \( -name '*.exr' -o -name '*.png' -o -name '*.hdr' -o -name '*.jpg' \) -size -256k
 mkdir -p "$here/corpus/spec"

@@ -146,6 +146,17 @@ pub fn ply(data: &[u8]) {
     }
 }
 
+/// Mitsuba `.serialized` meshes (zlib-compressed): the first byte of the input picks the
+/// shape index (0–3), the rest is the file.
+pub fn serialized(data: &[u8]) {
+    let Some((&index, file)) = data.split_first() else {
+        return;
+    };
+    if let Ok(m) = specula_render::serialized::parse(file, (index % 4) as i64) {
+        exercise_mesh(m);
+    }
+}
+
 /// Evaluates and samples a BSDF in a few directions.
 fn exercise_bsdf(b: &Bsdf) {
     let ctx = BsdfContext::RADIANCE;
@@ -161,7 +172,11 @@ fn exercise_bsdf(b: &Bsdf) {
             let _ = b.eval(&ctx, &sp, wi, wo);
             let _ = b.pdf(&ctx, &sp, wi, wo);
         }
-        for u in [Vec2::new(0.1, 0.2), Vec2::new(0.9, 0.6), Vec2::new(0.5, 0.999)] {
+        for u in [
+            Vec2::new(0.1, 0.2),
+            Vec2::new(0.9, 0.6),
+            Vec2::new(0.5, 0.999),
+        ] {
             let _ = b.sample(&ctx, &sp, wi, 0.3, u);
         }
     }
@@ -194,7 +209,11 @@ pub fn image(data: &[u8]) {
     }
     if let Ok(env) = specula_render::emitters::Envmap::new(&img, srgb, 1.0, &Mat4::IDENTITY) {
         let e = specula_render::emitters::Emitter::Envmap(Box::new(env));
-        for u in [Vec2::new(0.1, 0.2), Vec2::new(0.7, 0.4), Vec2::new(0.999, 0.0)] {
+        for u in [
+            Vec2::new(0.1, 0.2),
+            Vec2::new(0.7, 0.4),
+            Vec2::new(0.999, 0.0),
+        ] {
             if let Some(s) = e.sample_direction(Vec3::ZERO, u) {
                 let _ = e.pdf_direction(s.wi);
                 let _ = e.eval_direction(s.wi);

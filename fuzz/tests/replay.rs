@@ -14,6 +14,7 @@ const TARGETS: &[(&str, Target)] = &[
     ("overrides", specula_fuzz::overrides),
     ("obj", specula_fuzz::obj),
     ("ply", specula_fuzz::ply),
+    ("serialized", specula_fuzz::serialized),
     ("merl", specula_fuzz::merl),
     ("rgl", specula_fuzz::rgl),
     ("image", specula_fuzz::image),
@@ -50,7 +51,11 @@ fn run(target: &str, f: Target, path: &Path) {
     });
     assert!(r.is_ok(), "{target} panicked on {}", path.display());
     let secs = t.elapsed().as_secs_f64();
-    assert!(secs < 20.0, "{target} took {secs:.1} s on {}", path.display());
+    assert!(
+        secs < 20.0,
+        "{target} took {secs:.1} s on {}",
+        path.display()
+    );
 }
 
 #[test]

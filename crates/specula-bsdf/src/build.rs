@@ -264,6 +264,20 @@ fn perturbed<P>(p: &Props, perturbation: P) -> Result<Perturbed<P>, BuildError> 
 }
 
 /// Build a model from its plugin name, parameters and nested BSDFs.
+/// The most models (leaves, `twosided`s and `blendbsdf`s) one BSDF may be made of. A
+/// `twosided` with one nested BSDF holds it twice, so nested `twosided`s double the size at
+/// every level; real materials have a handful.
+pub const MAX_BSDF_NODES: usize = 1024;
+
+/// How many models `b` is made of.
+fn node_count(b: &Bsdf) -> usize {
+    match b {
+        Bsdf::TwoSided(t) => 1 + node_count(&t.front) + node_count(&t.back),
+        Bsdf::Blend(bl) => 1 + node_count(&bl.bsdfs[0]) + node_count(&bl.bsdfs[1]),
+        _ => 1,
+    }
+}
+
 pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
     let Some(valid) = plugin_params(&p.plugin) else {
         let names: Vec<&str> = PLUGINS.iter().map(|(n, _)| *n).collect();
@@ -391,6 +405,18 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
             roughness: p.float_param("roughness", 0.5)?,
         }),
         "twosided" => {
+            // one nested BSDF serves both sides (a copy): nesting doubles the tree at every
+            // level, so its size is bounded before copying
+            let nodes: usize = p.children.iter().map(|(b, _)| node_count(b)).sum();
+            if p.children.len() == 1 && 2 * nodes > MAX_BSDF_NODES {
+                return Err(BuildError::new(
+                    p.loc.clone(),
+                    format!(
+                        "'twosided' would make a BSDF of more than {MAX_BSDF_NODES} nested \
+                         models (the limit): each level of one-sided nesting copies it"
+                    ),
+                ));
+            }
             let mut kids: Vec<Bsdf> = p.children.iter().map(|(b, _)| b.clone()).collect();
             if kids.is_empty() || kids.len() > 2 {
                 return Err(BuildError::new(

@@ -189,3 +189,42 @@ pub fn parse_spec(s: &str) -> Result<Bsdf, BuildError> {
     }
     Ok(b)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn err(s: &str) -> String {
+        parse_spec(s).err().expect(s).to_string()
+    }
+
+    #[test]
+    fn errors_name_a_column() {
+        // an unclosed brace at the end names the brace (said "empty material spec")
+        let e = err("diffuse {");
+        assert!(
+            e.contains("material spec, column 9")
+                && e.contains("expected a plugin name after '{', found the end of the spec"),
+            "{e}"
+        );
+        assert!(err("").contains("column 1") && err("").contains("empty material spec"));
+        assert!(err("twosided { diffuse").contains("column 10"));
+        assert!(parse_spec("twosided { diffuse reflectance=0.5 }").is_ok());
+    }
+
+    /// 3000 nested braces overflowed the stack of the recursive parser.
+    #[test]
+    fn nesting_depth_is_limited() {
+        let nested = |n: usize| format!("{}diffuse{}", "twosided { ".repeat(n), " }".repeat(n));
+        let e = err(&nested(3000));
+        assert!(
+            e.ends_with("plugins nested more than 64 deep (the limit)"),
+            "{e}"
+        );
+        // 65 levels: the column of the first plugin too deep
+        let e = err(&nested(65));
+        assert!(e.contains(&format!("column {}", 65 * 11 + 1)), "{e}");
+        let e = err(&nested(64));
+        assert!(!e.contains("nested more than"), "{e}");
+    }
+}

@@ -658,7 +658,8 @@ fn split(
         }
         m
     };
-    if !(ext[axis] > 0.0) || depth >= MAX_SAH_DEPTH {
+    // (`ext[axis] <= 0.0` would let a NaN extent through)
+    if ext[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || depth >= MAX_SAH_DEPTH {
         return median(range);
     }
     let bin_of = |c: f64, a: usize| -> usize {
@@ -668,7 +669,7 @@ fn split(
     // best (cost, axis, first bin of the right side)
     let mut best = (f64::INFINITY, usize::MAX, 0usize);
     for a in 0..3 {
-        if !(ext[a] > 0.0) {
+        if ext[a].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             continue;
         }
         let mut bins = [(Vec3::INFINITY, Vec3::NEG_INFINITY, 0u32); BINS];

@@ -355,8 +355,8 @@ impl Film {
             if w != 0.0 {
                 let inv = 1.0 / w;
                 let px = &mut out[3 * i..3 * i + 3];
-                for c in 0..3 {
-                    px[c] = self.sum[3 * i + c] * inv;
+                for (v, s) in px.iter_mut().zip(&self.sum[3 * i..3 * i + 3]) {
+                    *v = s * inv;
                 }
                 if !(w.is_finite() && px.iter().all(|v| v.is_finite())) {
                     px.fill(0.0);

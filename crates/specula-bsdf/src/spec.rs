@@ -195,7 +195,7 @@ mod tests {
     use super::*;
 
     fn err(s: &str) -> String {
-        parse_spec(s).err().expect(s).to_string()
+        parse_spec(s).expect_err(s).to_string()
     }
 
     #[test]

@@ -361,28 +361,11 @@ impl SceneMedia {
     }
 }
 
-/// Mitsuba's `null` BSDF as the scene builder makes it while the material library has none: a
-/// `dielectric` with η = 1 (passes every ray straight on with weight 1), which
-/// [`is_null_bsdf`] recognises. It takes no parameters.
-pub fn null_bsdf(n: &Node) -> Result<specula_bsdf::Bsdf> {
-    if let Some(c) = n.children.first() {
-        return Err(err(
-            c,
-            format!("<{}> cannot be nested in a null bsdf", c.tag),
-        ));
-    }
-    n.check_unused(&[])?;
-    Ok(specula_bsdf::Bsdf::Dielectric(
-        specula_bsdf::models::Dielectric::new(1.0),
-    ))
-}
-
 /// Whether a BSDF is an index-matched, invisible boundary (`null`): `volpath` passes through
 /// it without counting a bounce, and lets shadow rays through.
 #[inline]
 pub fn is_null_bsdf(b: &specula_bsdf::Bsdf) -> bool {
-    matches!(b, specula_bsdf::Bsdf::Dielectric(d) if d.eta == 1.0
-        && d.specular_transmittance.is_const() && d.specular_transmittance.mean() == specula_bsdf::Rgb::ONE)
+    matches!(b, specula_bsdf::Bsdf::Null(_))
 }
 
 #[cfg(test)]

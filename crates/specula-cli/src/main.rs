@@ -11,6 +11,7 @@ mod fresnel;
 mod gallery;
 mod material;
 mod output;
+mod phase;
 mod plot;
 mod render;
 
@@ -43,12 +44,19 @@ enum Command {
         #[command(subcommand)]
         command: brdf::BrdfCommand,
     },
+    /// Work with participating media's phase functions (isotropic, hg, rayleigh, blendphase),
+    /// given as specs ("hg g=0.7") or XML snippets, without a scene.
+    Phase {
+        #[command(subcommand)]
+        command: phase::PhaseCommand,
+    },
 }
 
 fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), CliError> {
     match cli.command {
         Command::Fresnel(args) => fresnel::run(&args, out),
         Command::Brdf { command } => brdf::run(command, out),
+        Command::Phase { command } => phase::run(command, out),
         Command::Render(args) => render::run(&args, out),
         Command::Gallery(args) => gallery::run(&args, out),
     }

@@ -33,10 +33,12 @@ enum Command {
     /// Fresnel reflectance vs incidence angle: a dielectric (`--ior`) or a named conductor
     /// (`--material`); `specula fresnel plot …` draws it.
     Fresnel(fresnel::FresnelArgs),
-    /// Render a Mitsuba 3 scene (XML) to OpenEXR or PNG.
+    /// Render a Mitsuba 3 scene (XML) to OpenEXR or PNG, with the scene's integrator (`path`,
+    /// `volpath` for participating media, `direct`, `depth`, `aov`).
     Render(render::RenderArgs),
     /// Render a labelled contact sheet (PNG) of material previews: every built-in preset and
-    /// any materials given, each on a sphere on a checkerboard floor under a procedural sky.
+    /// any materials given, each on a sphere on a checkerboard floor under a procedural sky
+    /// (the absorbing-glass and subsurface presets fill the sphere with a medium: `volpath`).
     Gallery(gallery::GalleryArgs),
     /// Work with one material: a spec ("roughconductor material=Cu alpha=0.2"), an XML snippet,
     /// a MERL .binary or RGL .bsdf file, or scene.xml#id.

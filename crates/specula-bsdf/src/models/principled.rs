@@ -43,6 +43,10 @@
 //! - The sheen lobe is added wherever its own mask holds; Mitsuba's scalar variant adds it
 //!   only where the diffuse lobe is active too, i.e. it drops the sheen at spec_trans = 1
 //!   exactly (its vectorised variants add it where any lane of the wavefront is diffuse).
+//! - The transmitted fraction 1 − F of the transmission lobe is computed from both cosines
+//!   ([`crate::fresnel::dielectric_transmittance_pair`]), as `roughdielectric` does: the same
+//!   value as Mitsuba's 1 − F, without its cancellation near total internal reflection, so
+//!   that the lobe is reciprocal to single precision.
 //! - Constant weights outside their ranges (negative roughness, metallic > 1, …) are errors;
 //!   Mitsuba accepts them and returns negative values.
 //!
@@ -51,7 +55,7 @@
 
 use crate::bsdf::*;
 use crate::frame::{reflect, refract};
-use crate::fresnel::fresnel_dielectric;
+use crate::fresnel::{dielectric_transmittance_pair, fresnel_dielectric};
 use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
 use crate::spectrum::Spectrum;
 use crate::warp;
@@ -403,7 +407,7 @@ impl Principled {
                 TransportMode::Radiance => 1.0 / (eta_path * eta_path),
                 TransportMode::Importance => 1.0,
             };
-            let t = 1.0 - f_diel;
+            let t = dielectric_transmittance_pair(dwi.abs(), dwo.abs(), eta_path);
             let v = (scale * t * d * g * eta_path * eta_path * dwi * dwo
                 / (ci * co * denom * denom))
                 .abs();
@@ -436,15 +440,29 @@ impl Principled {
             return none;
         }
         let eta_path = if front { self.eta } else { 1.0 / self.eta };
-        let h = wi + wo * if reflect { 1.0 } else { eta_path };
-        let mut wh = h.normalize();
+        let mut wh = if reflect {
+            (wi + wo).normalize()
+        } else {
+            // in double precision, so that the pair and the swapped pair give the same half
+            // vector (reciprocity of the transmission lobe), as `roughdielectric`
+            (wi.as_dvec3() + wo.as_dvec3() * eta_path as f64)
+                .normalize()
+                .as_vec3()
+        };
         if wh.z < 0.0 {
             wh = -wh;
         }
         if !wh.is_finite() {
             return none;
         }
-        let f_diel = fresnel_dielectric(wi.dot(wh), self.eta).r;
+        // for reflection wi·h = wo·h: their mean makes the value exactly symmetric in
+        // (wi, wo), which matters near the critical angle where F has a square-root singularity
+        let cos_h = if reflect {
+            0.5 * (wi.dot(wh) + wo.dot(wh))
+        } else {
+            wi.dot(wh)
+        };
+        let f_diel = fresnel_dielectric(cos_h, self.eta).r;
         let p = self.probs(&l, front, f_diel);
         let distr = ggx(l.anisotropic, l.roughness);
         let mut value = Spectrum::ZERO;
@@ -704,3 +722,103 @@ pub const PARAMS: &[&str] = &[
     "clearcoat_sampling_rate",
     "diffuse_reflectance_sampling_rate",
 ];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::parse_spec;
+
+    fn principled(spec: &str) -> Principled {
+        match parse_spec(spec).unwrap() {
+            crate::Bsdf::Principled(p) => *p,
+            _ => unreachable!(),
+        }
+    }
+
+    #[test]
+    fn specular_maps_to_eta() {
+        // Mitsuba: η = 2/(1 − √(0.08 specular)) − 1; the default 0.5 is η = 1.5
+        assert!((principled("principled").eta - 1.5).abs() < 1e-6);
+        let e = principled("principled specular=0.2").eta;
+        assert!((e - (2.0 / (1.0 - (0.016f32).sqrt()) - 1.0)).abs() < 1e-6);
+        assert_eq!(principled("principled eta=1.33").eta, 1.33);
+        // η = 1 and specular = 0 are implausible for transmission and nudged, as in Mitsuba
+        assert_eq!(principled("principled eta=1 spec_trans=0.5").eta, 1.001);
+        assert!(principled("principled specular=0 spec_trans=0.5").eta > 1.0);
+        assert_eq!(principled("principled specular=0").eta, 1.0);
+    }
+
+    #[test]
+    fn bad_parameters_are_errors() {
+        for (bad, what) in [
+            (
+                "principled eta=1.5 specular=0.5",
+                "either 'eta' or 'specular'",
+            ),
+            ("principled metallic=1.5", "'metallic' must lie in [0, 1]"),
+            ("principled roughness=-0.1", "'roughness'"),
+            ("principled eta=-1", "'eta' must be positive"),
+            ("principled specular=20", "'specular' must lie in"),
+            ("principled clearcoat_sampling_rate=-1", "non-negative"),
+            (
+                "principled diff_trans=0.5",
+                "unknown parameter 'diff_trans'",
+            ),
+        ] {
+            let e = parse_spec(bad).expect_err(bad).to_string();
+            assert!(e.contains(what), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn transmission_lobe_exists_only_when_given() {
+        assert!(!principled("principled").flags().has_transmission());
+        assert!(!principled("principled spec_trans=0")
+            .flags()
+            .has_transmission());
+        assert!(principled("principled spec_trans=0.3")
+            .flags()
+            .has_transmission());
+    }
+
+    /// From below a surface that transmits nothing, nothing is sampled, and the pdf is 0
+    /// (Mitsuba's is not: a deliberate difference, see the module docs).
+    #[test]
+    fn nothing_scatters_from_below_without_transmission() {
+        let ctx = BsdfContext::RADIANCE;
+        let sp = ShadingPoint::default();
+        let wi = Vec3::new(0.3, 0.1, -0.9).normalize();
+        for spec in ["principled", "principled spec_trans=0.7 metallic=1"] {
+            let b = principled(spec);
+            for wo in [Vec3::new(-0.3, 0.0, -0.95), Vec3::new(0.2, 0.3, 0.9)] {
+                let (f, p) = b.eval_pdf(&ctx, &sp, wi, wo.normalize());
+                assert_eq!((f, p), (Spectrum::ZERO, 0.0), "{spec}");
+            }
+            assert!(b.sample(&ctx, &sp, wi, 0.5, Vec2::new(0.3, 0.6)).is_none());
+        }
+        // with transmission weight, light from below reflects and refracts
+        let b = principled("principled spec_trans=0.7 roughness=0.3");
+        let wo = Vec3::new(-0.3, -0.1, -0.9).normalize();
+        assert!(b.eval_pdf(&ctx, &sp, wi, wo).1 > 0.0);
+    }
+
+    #[test]
+    fn sampled_refraction_reports_its_relative_index() {
+        let b = principled("principled spec_trans=1 roughness=0.2 eta=1.33");
+        let ctx = BsdfContext::RADIANCE;
+        let sp = ShadingPoint::default();
+        let wi = Vec3::new(0.2, 0.0, 0.98).normalize();
+        let mut seen = 0;
+        for i in 0..64 {
+            let u1 = (i as f32 + 0.5) / 64.0;
+            if let Some(s) = b.sample(&ctx, &sp, wi, u1, Vec2::new(0.37, 0.61)) {
+                if s.wo.z < 0.0 {
+                    assert_eq!(s.lobe, LobeFlags::GLOSSY_TRANSMISSION);
+                    assert!((s.eta - 1.33).abs() < 1e-6);
+                    seen += 1;
+                }
+            }
+        }
+        assert!(seen > 0);
+    }
+}

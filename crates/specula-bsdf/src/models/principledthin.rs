@@ -24,6 +24,10 @@
 //! Lobes are sampled with Mitsuba's probabilities (spec_trans/2 each for the specular
 //! lobes, the diffuse weights for the cosine-weighted ones), so `pdf` is Mitsuba's.
 //!
+//! As in Mitsuba the specular transmission is not reciprocal: a pair (wi, wo) is kept when
+//! wi·h > 0 and wo·h < 0 (h the half vector of wi and the mirror image of wo), conditions that
+//! are not symmetric in wi and wo. The other lobes are.
+//!
 //! Deliberate differences from Mitsuba 3.9: [`BsdfModel::flags`] lists only the lobes that
 //! exist (Mitsuba always lists diffuse transmission and glossy reflection); constant weights
 //! outside their ranges are errors.
@@ -358,3 +362,48 @@ pub const PARAMS: &[&str] = &[
     "diffuse_reflectance_sampling_rate",
     "diffuse_transmittance_sampling_rate",
 ];
+
+#[cfg(test)]
+mod tests {
+    use crate::bsdf::*;
+    use crate::parse_spec;
+    use glam::Vec3;
+
+    #[test]
+    fn the_surface_responds_alike_from_both_sides() {
+        let b = parse_spec(
+            "principledthin base_color=0.7,0.5,0.3 roughness=0.4 spec_trans=0.6 diff_trans=0.8",
+        )
+        .unwrap();
+        let ctx = BsdfContext::RADIANCE;
+        let sp = ShadingPoint::default();
+        let wi = Vec3::new(0.3, 0.2, 0.9).normalize();
+        for wo in [Vec3::new(-0.4, 0.1, 0.8), Vec3::new(-0.3, -0.1, -0.9)] {
+            let wo = wo.normalize();
+            let a = b.eval_pdf(&ctx, &sp, wi, wo);
+            let c = b.eval_pdf(&ctx, &sp, -wi, -wo);
+            assert_eq!(a, c);
+            assert!(a.1 > 0.0 && a.0.max_component() > 0.0);
+        }
+    }
+
+    #[test]
+    fn lobes_follow_the_parameters() {
+        let b = parse_spec("principledthin").unwrap();
+        assert_eq!(b.flags(), LobeFlags::DIFFUSE_REFLECTION);
+        let b = parse_spec("principledthin spec_trans=0 diff_trans=0").unwrap();
+        assert_eq!(b.flags(), LobeFlags::DIFFUSE_REFLECTION);
+        let b = parse_spec("principledthin spec_trans=0.2 diff_trans=1").unwrap();
+        assert!(b
+            .flags()
+            .contains(LobeFlags::GLOSSY_TRANSMISSION | LobeFlags::DIFFUSE_TRANSMISSION));
+        for bad in [
+            "principledthin eta=0",
+            "principledthin diff_trans=2.5",
+            "principledthin spec_trans=-0.1",
+            "principledthin specular=0.5",
+        ] {
+            assert!(parse_spec(bad).is_err(), "{bad}");
+        }
+    }
+}

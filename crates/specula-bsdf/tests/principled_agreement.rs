@@ -192,14 +192,14 @@ fn check(m: &Model, perturb: f32) -> Report {
             std::array::from_fn(|k| f[k])
         };
         let kind = if c.sample { "sample" } else { "eval" };
-        for k in 0..3 {
-            let reference = c.value[k] * perturb;
+        for (k, (&o, &v)) in ours.iter().zip(&c.value).enumerate() {
+            let reference = v * perturb;
             r.nonzero += (reference.abs() > ABS_FLOOR) as usize;
-            r.max_f = r.max_f.max(rel(ours[k], reference));
-            if !(ours[k].is_finite() && close(ours[k], reference)) {
+            r.max_f = r.max_f.max(rel(o, reference));
+            if !(o.is_finite() && close(o, reference)) {
                 r.mismatches.push(format!(
-                    "{kind} #{i} uv={} wi={} wo={} [{k}]: specula {:e} vs mitsuba {:e}",
-                    c.uv, c.wi, c.wo, ours[k], reference
+                    "{kind} #{i} uv={} wi={} wo={} [{k}]: specula {o:e} vs mitsuba {reference:e}",
+                    c.uv, c.wi, c.wo
                 ));
             }
         }

@@ -430,7 +430,7 @@ impl Principled {
         }
         let reflect = ci * co > 0.0;
         let refract = ci * co < 0.0;
-        if !reflect && !(refract && self.has_spec_trans) {
+        if !(reflect || refract && self.has_spec_trans) {
             return none;
         }
         let l = self.local(sp);
@@ -580,7 +580,7 @@ impl BsdfModel for Principled {
             return None;
         }
         let (value, pdf) = self.eval_pdf_impl::<true>(ctx, sp, wi, wo);
-        if !(pdf > 0.0) || !pdf.is_finite() {
+        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
             return None;
         }
         Some(BsdfSample {

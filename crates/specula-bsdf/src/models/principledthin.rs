@@ -291,7 +291,7 @@ impl BsdfModel for PrincipledThin {
         }
         let wo = if ci < 0.0 { -wo } else { wo };
         let (value, pdf) = self.eval_pdf_impl::<true>(sp, wi_in, wo);
-        if !(pdf > 0.0) || !pdf.is_finite() {
+        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
             return None;
         }
         Some(BsdfSample {

@@ -11,7 +11,8 @@ How to run (needs `pip install mitsuba==3.9.1` and numpy):
 
 It draws random parameter sets of `principled` and `principledthin` (every parameter either
 left at its default, given as 0, or drawn from its range; some of them textures), and for each
-random direction pairs with a fixed seed, and records what Mitsuba's `scalar_rgb` variant
+random direction pairs with a fixed seed (plus one parameter set of each with every
+texturable parameter textured), and records what Mitsuba's `scalar_rgb` variant
 returns in radiance mode:
 
     model <id> <spec>                     the Specula spec (textured parameters are absent)
@@ -117,7 +118,8 @@ def random_params(rng, plugin, table, textured):
     d = {"type": plugin}
     tex = {}
     # base colour
-    u = rng.random()
+    every = textured == "all"
+    u = 0.0 if every else rng.random()
     if textured and u < 0.5:
         tex["base_color"] = bitmap([[f32(rng.uniform(0.02, 1.0)) for _ in range(3)]
                                     for _ in range(4)])
@@ -126,7 +128,7 @@ def random_params(rng, plugin, table, textured):
         spec.append("base_color=" + ",".join(fmt(x) for x in c))
         d["base_color"] = {"type": "rgb", "value": c}
     for name, lo, hi in table:
-        u = rng.random()
+        u = 0.0 if every else rng.random()
         if textured and u < 0.3:
             tex[name] = bitmap([f32(rng.uniform(lo, hi)) for _ in range(4)])
         elif u < 0.4:
@@ -267,6 +269,9 @@ def main():
         configs.append(("principled", PRINCIPLED_PARAMS, i % 3 == 2))
     for i in range(N_THIN):
         configs.append(("principledthin", THIN_PARAMS, i % 3 == 2))
+    # and one of each with every parameter that can be a texture textured
+    configs.append(("principled", PRINCIPLED_PARAMS, "all"))
+    configs.append(("principledthin", THIN_PARAMS, "all"))
     ctx = mi.BSDFContext()
     dropped = 0
     for idx, (plugin, table, textured) in enumerate(configs):

@@ -26,6 +26,7 @@ $S brdf plot "$P" -o docs/principled_lobe.png
 $S brdf albedo "$P" -o docs/principled_albedo.png >/dev/null
 $S brdf plot "$PT" -o docs/principledthin_lobe.png
 $S brdf albedo "$PT" -o docs/principledthin_albedo.png >/dev/null
+$S phase plot hg --g 0.2,0.6,0.9,-0.4 rayleigh --log -o docs/phase.png
 $S gallery --quiet -o docs/gallery.png "$SHARED/data/merl/mitsuba_rough_copper.binary" \
     "$SHARED/data/rgl/acrylic_felt_green_rgb.bsdf"
 echo "docs/*.png regenerated"

@@ -2,7 +2,7 @@
 """Render the AOV fixture scenes with Mitsuba 3.9.1 and record every channel of every pixel.
 
 Developer tool only (CI has no Mitsuba). Reads crates/specula-render/tests/data/
-aov_fixture.xml and aov_fixture_ortho.xml (Mitsuba's `aov` integrator with every AOV type, a
+aov_fixture.xml, aov_fixture_ortho.xml and aov_fixture_thinlens.xml (Mitsuba's `aov` integrator with every AOV type, a
 stratified sampler without jitter, so that the four samples of each pixel lie at fixed
 positions), renders them in scalar_rgb, and writes crates/specula-render/tests/data/
 aov_fixture.txt, which crates/specula-render/tests/aov.rs compares Specula's render with.
@@ -72,7 +72,7 @@ if "--albedo" in sys.argv:
     sys.exit()
 
 lines = []
-for name in ["aov_fixture.xml", "aov_fixture_ortho.xml"]:
+for name in ["aov_fixture.xml", "aov_fixture_ortho.xml", "aov_fixture_thinlens.xml"]:
     scene = mi.load_file(str(DATA / name))
     img = np.array(mi.render(scene))
     names = list(scene.integrator().aov_names())

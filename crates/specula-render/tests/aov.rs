@@ -1,6 +1,6 @@
 //! Mitsuba's `aov` integrator, every AOV type, against Mitsuba 3.9.1: the scenes
-//! `tests/data/aov_fixture.xml` (pinhole camera) and `aov_fixture_ortho.xml` (orthographic)
-//! were rendered by Mitsuba into `tests/data/aov_fixture.txt` (`scripts/gen_aov_fixture.py`);
+//! `tests/data/aov_fixture.xml` (pinhole camera), `aov_fixture_ortho.xml` (orthographic) and
+//! `aov_fixture_thinlens.xml` (thin lens, one sample per pixel) were rendered by Mitsuba into `tests/data/aov_fixture.txt` (`scripts/gen_aov_fixture.py`);
 //! Specula renders the same files and must give the same channels, named and ordered as
 //! Mitsuba names them, pixel by pixel. The scenes' stratified sampler without jitter places a
 //! pixel's four samples at fixed positions, so both renderers trace the same camera rays, and
@@ -8,7 +8,7 @@
 //! rule of `albedo` (diffuse with a texture, plastic, twosided seen from the back, blendbsdf,
 //! mask, roughconductor, dielectric, a measured RGL material); the shapes every kind of
 //! ∂p/∂u, ∂p/∂v (rectangle, sphere, cylinder, cube, disk, OBJ mesh with uvs); `duv_dx`,
-//! `duv_dy` check the ray differentials of both cameras, scaled by 1/√4.
+//! `duv_dy` check the ray differentials of the three cameras, scaled by 1/√spp (4 and 1).
 //!
 //! Where a pixel's samples include a miss, Mitsuba's `duv_dx`/`duv_dy` are NaN (its
 //! `compute_uv_partials` divides by the zero normal of an empty interaction); Specula writes
@@ -53,21 +53,23 @@ fn sections() -> Vec<Section> {
 #[test]
 fn every_aov_matches_mitsuba() {
     let sections = sections();
-    assert_eq!(sections.len(), 2);
+    assert_eq!(sections.len(), 3);
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
     for s in &sections {
         let scene = Scene::load(&dir.join(&s.scene), &[]).unwrap();
+        // the file's own sample count, as Mitsuba rendered it
+        let spp = scene.sampler.sample_count;
         let out = render(
             &scene,
             &RenderOptions {
-                spp: 4,
+                spp,
                 seed: 0,
                 threads: 0,
             },
             &AtomicBool::new(false),
             &|_, _| {},
         );
-        assert_eq!(out.spp, 4);
+        assert_eq!(out.spp, spp);
         let names: Vec<&String> = out.aovs.iter().map(|(n, _)| n).collect();
         assert_eq!(names, s.channels.iter().collect::<Vec<_>>(), "{}", s.scene);
         assert_eq!(s.pixels.len(), out.width * out.height);
@@ -81,9 +83,18 @@ fn every_aov_matches_mitsuba() {
                     assert!(name.starts_with("dx.") || name.starts_with("dy."));
                     continue;
                 }
-                // the albedo of a glossy model (π·f towards the normal) is the most sensitive
-                // to the rounding of the viewing direction
-                let tol = if name.starts_with("a.") { 1e-3 } else { 1e-4 };
+                // rounding: the albedo of a glossy model (π·f towards the normal) is the most
+                // sensitive to the viewing direction (worst seen 3.3e-4); ∂uv/∂x, ∂uv/∂y divide
+                // by the cosine at the hit, so they grow where a surface is seen at a grazing
+                // angle, and their rounding with them (worst seen 1.7e-4, where |∂uv/∂y| ≈ 2);
+                // everything else agrees to 4e-5
+                let tol = if name.starts_with("a.") {
+                    1e-3
+                } else if name.starts_with("dx.") || name.starts_with("dy.") {
+                    5e-4
+                } else {
+                    1e-4
+                };
                 let e = (got - w).abs() / w.abs().max(1.0);
                 assert!(
                     e <= tol,

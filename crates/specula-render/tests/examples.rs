@@ -87,8 +87,9 @@ fn measured_example_renders_the_felt() {
                 continue;
             };
             if scene.shape_bsdf[hit.shape as usize] == felt {
-                for c in 0..3 {
-                    sum[c] += out.rgb[(y * out.width + x) * 3 + c] as f64;
+                let i = (y * out.width + x) * 3;
+                for (s, v) in sum.iter_mut().zip(&out.rgb[i..i + 3]) {
+                    *s += *v as f64;
                 }
                 n += 1;
             }

@@ -393,10 +393,18 @@ mod tests {
         // 8-bit values (the table) and others (the formula) decode alike
         for i in 0..=255 {
             let e = i as f32 / 255.0;
-            assert_eq!(srgb_to_linear(e).to_bits(), srgb_formula(e).to_bits(), "{i}");
+            assert_eq!(
+                srgb_to_linear(e).to_bits(),
+                srgb_formula(e).to_bits(),
+                "{i}"
+            );
         }
         for v in [0.5, 0.001, 1.0 - 1e-7, 1.5, -0.25, 300.0 / 255.0, 1e-30] {
-            assert_eq!(srgb_to_linear(v).to_bits(), srgb_formula(v).to_bits(), "{v}");
+            assert_eq!(
+                srgb_to_linear(v).to_bits(),
+                srgb_formula(v).to_bits(),
+                "{v}"
+            );
         }
         assert!(srgb_to_linear(f32::NAN).is_nan());
     }

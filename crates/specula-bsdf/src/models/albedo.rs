@@ -2,8 +2,8 @@
 //! `BSDF::eval_diffuse_reflectance` defines it: what the `aov` integrator's `albedo` output
 //! records.
 //!
-//! - `diffuse`: its `reflectance`; `plastic`, `roughplastic`: their `diffuse_reflectance`
-//!   (whichever side `wi` is on);
+//! - `diffuse`: its `reflectance`; `plastic`, `roughplastic`: their `diffuse_reflectance`;
+//!   `principled`, `principledthin`: their `base_color` (whichever side `wi` is on);
 //! - `twosided`: the front model's for `wi` above the surface, the back model's (with `wi`
 //!   mirrored) below, 0 at grazing `wi`;
 //! - `blendbsdf`: the blend of its two models' by `weight` (clamped to [0, 1]);
@@ -28,6 +28,9 @@ impl Bsdf {
             Bsdf::Diffuse(b) => b.reflectance.eval(sp),
             Bsdf::Plastic(b) => b.diffuse_reflectance.eval(sp),
             Bsdf::RoughPlastic(b) => b.diffuse_reflectance.eval(sp),
+            // Mitsuba 3.9.1: base_color, from either side
+            Bsdf::Principled(b) => b.base_color.eval(sp),
+            Bsdf::PrincipledThin(b) => b.base_color.eval(sp),
             Bsdf::TwoSided(b) => {
                 if wi.z > 0.0 {
                     b.front.diffuse_reflectance(sp, wi)
@@ -110,6 +113,15 @@ mod tests {
                 ],
             ),
             (format!("mask opacity=0.3 {{ {d} }}"), [[0.2, 0.4, 0.6]; 3]),
+            // base_color from either side (Mitsuba 3.9.1, probed at wi = ±z)
+            (
+                "principled base_color=0.2,0.4,0.6 metallic=0.5 spec_trans=0.3".into(),
+                [[0.2, 0.4, 0.6]; 3],
+            ),
+            (
+                "principledthin base_color=0.2,0.4,0.6".into(),
+                [[0.2, 0.4, 0.6]; 3],
+            ),
             (
                 format!("mask opacity=0.3 {{ {rc} }}"),
                 [[2.77778; 3], [2.12941; 3], [0.0; 3]],

@@ -30,6 +30,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "alpha_v",
             "sample_visible",
             "smith_g1",
+            "multiscatter",
         ],
     ),
     (
@@ -317,16 +318,22 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
             let (au, av) = roughness(&p, true)?;
             check_alpha(&p, &au)?;
             check_alpha(&p, &av)?;
-            Bsdf::RoughConductor(RoughConductor {
-                distribution: distribution(&p)?,
-                alpha_u: au,
-                alpha_v: av,
-                sample_visible: p.bool("sample_visible", true)?,
-                rational_g1: rational_g1(&p)?,
-                eta,
-                k,
-                specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
-            })
+            Bsdf::RoughConductor(
+                RoughConductor {
+                    distribution: distribution(&p)?,
+                    alpha_u: au,
+                    alpha_v: av,
+                    sample_visible: p.bool("sample_visible", true)?,
+                    rational_g1: rational_g1(&p)?,
+                    eta,
+                    k,
+                    specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
+                    multiscatter: false,
+                    ms_f_avg: None,
+                    ms_aniso: None,
+                }
+                .with_multiscatter(p.bool("multiscatter", false)?),
+            )
         }
         "dielectric" => Bsdf::Dielectric(Dielectric {
             eta: eta(&p, "bk7")?,

@@ -67,6 +67,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "sample_visible",
             "smith_g1",
             "fresnel",
+            "multiscatter",
         ],
     ),
     (
@@ -351,17 +352,21 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
             let (au, av) = roughness(&p, true)?;
             check_alpha(&p, &au)?;
             check_alpha(&p, &av)?;
-            Bsdf::RoughDielectric(RoughDielectric {
-                distribution: distribution(&p)?,
-                alpha_u: au,
-                alpha_v: av,
-                sample_visible: p.bool("sample_visible", true)?,
-                rational_g1: rational_g1(&p)?,
-                eta: eta(&p, "bk7")?,
-                specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
-                specular_transmittance: p.spectrum("specular_transmittance", 1.0)?,
-                fresnel: fresnel_mode(&p)?,
-            })
+            Bsdf::RoughDielectric(
+                RoughDielectric {
+                    distribution: distribution(&p)?,
+                    alpha_u: au,
+                    alpha_v: av,
+                    sample_visible: p.bool("sample_visible", true)?,
+                    rational_g1: rational_g1(&p)?,
+                    eta: eta(&p, "bk7")?,
+                    specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
+                    specular_transmittance: p.spectrum("specular_transmittance", 1.0)?,
+                    fresnel: fresnel_mode(&p)?,
+                    multiscatter: None,
+                }
+                .with_multiscatter(p.bool("multiscatter", false)?),
+            )
         }
         "plastic" | "roughplastic" => {
             let eta = eta(&p, "polypropylene")?;

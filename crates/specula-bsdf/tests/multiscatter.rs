@@ -176,3 +176,84 @@ fn dielectric_suite() {
         100_000,
     );
 }
+
+fn agreement(
+    spec: &str,
+    theta: f32,
+    samples: usize,
+) -> specula_bsdf::models::microsurface_walk::Agreement {
+    use specula_bsdf::models::microsurface_walk::{compare, walk_for};
+    let b = parse_spec(spec).unwrap();
+    let w = walk_for(&b).unwrap();
+    let a = compare(&b, &w, check::suite::incidence(theta), samples, 17);
+    println!(
+        "{spec} θi={theta}: albedo model {:.4?} walk {:.4?} (rel {:.4}), T {:.4}/{:.4}, lobe TV {:.4} (noise {:.4})",
+        a.model, a.walk, a.albedo_rel, a.model_t, a.walk_t, a.lobe_tv, a.lobe_noise
+    );
+    a
+}
+
+/// Agreement with the exact random walk (Heitz et al. 2016), 200 000 samples each. The lobe
+/// distance of two identical lobes is ≈ `lobe_noise` (≈ 0.016 here), which the thresholds
+/// allow for; the albedo is compared per channel.
+#[test]
+fn agrees_with_the_random_walk() {
+    // white GGX conductor at α = 1: the single-scattering model is 64 % short of the walk
+    let a = agreement(
+        "roughconductor distribution=ggx alpha=1 multiscatter=true",
+        45.0,
+        200_000,
+    );
+    assert!(a.albedo_rel < 0.02 && a.lobe_tv < 0.04, "{a:?}");
+    let ss = agreement("roughconductor distribution=ggx alpha=1", 45.0, 200_000);
+    assert!(
+        ss.albedo_rel > 0.5 && ss.lobe_tv > 0.05,
+        "the test has power: {ss:?}"
+    );
+    // copper, Beckmann, normal incidence
+    let a = agreement(
+        "roughconductor distribution=beckmann alpha=0.6 material=Cu multiscatter=true",
+        0.0,
+        200_000,
+    );
+    assert!(a.albedo_rel < 0.02 && a.lobe_tv < 0.04, "{a:?}");
+    // glass: R + T and the split between them, from outside and from inside
+    for (t, tv) in [(0.0, 0.04), (135.0, 0.12)] {
+        let a = agreement(
+            "roughdielectric distribution=ggx alpha=0.5 multiscatter=true",
+            t,
+            200_000,
+        );
+        assert!(a.albedo_rel < 0.02, "{a:?}");
+        assert!((a.model_t - a.walk_t).abs() < 0.02, "{a:?}");
+        assert!(a.lobe_tv < tv, "{a:?}");
+    }
+}
+
+/// The survey behind the figures in the report (`-- --ignored --nocapture`).
+#[test]
+#[ignore]
+fn agreement_survey() {
+    for spec in [
+        "roughconductor distribution=ggx alpha=0.3 multiscatter=true",
+        "roughconductor distribution=ggx alpha=1 multiscatter=true",
+        "roughconductor distribution=ggx alpha=1",
+        "roughconductor distribution=beckmann alpha=0.6 material=Cu multiscatter=true",
+        "roughconductor distribution=ggx alpha=0.8 material=Au multiscatter=true",
+        "roughconductor distribution=ggx alpha=0.8 material=Au",
+        "roughdielectric distribution=ggx alpha=0.5 multiscatter=true",
+        "roughdielectric distribution=ggx alpha=1 multiscatter=true",
+        "roughdielectric distribution=beckmann alpha=0.7 multiscatter=true",
+    ] {
+        for t in [0.0, 45.0, 75.0] {
+            agreement(spec, t, 200_000);
+        }
+    }
+    for t in [135.0, 170.0] {
+        agreement(
+            "roughdielectric distribution=ggx alpha=0.5 multiscatter=true",
+            t,
+            200_000,
+        );
+    }
+}

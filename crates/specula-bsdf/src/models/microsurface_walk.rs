@@ -430,3 +430,158 @@ mod tests {
         assert!((ratio - 2.25).abs() < 0.06, "T_out/T_in = {ratio}");
     }
 }
+
+/// The walk on the microsurface a `roughconductor` or `roughdielectric` describes (constant
+/// parameters; the dielectric's reflectance and transmittance tints are left out, the
+/// material should be white for a comparison).
+pub fn walk_for(b: &super::Bsdf) -> Result<MicrosurfaceWalk, String> {
+    use crate::bsdf::{FloatParam, SpectrumParam};
+    let konst = |p: &FloatParam| match p {
+        FloatParam::Const(v) => Ok(*v),
+        _ => Err("the random walk needs a constant roughness".to_string()),
+    };
+    let kspec = |p: &SpectrumParam| match p {
+        SpectrumParam::Const(v) => Ok(*v),
+        _ => Err("the random walk needs constant optical constants".to_string()),
+    };
+    match b {
+        super::Bsdf::RoughConductor(c) => Ok(MicrosurfaceWalk::new(
+            c.distribution,
+            konst(&c.alpha_u)?,
+            konst(&c.alpha_v)?,
+            WalkMaterial::Conductor {
+                eta: kspec(&c.eta)?,
+                k: kspec(&c.k)?,
+                reflectance: kspec(&c.specular_reflectance)?,
+            },
+        )),
+        super::Bsdf::RoughDielectric(d) => Ok(MicrosurfaceWalk::new(
+            d.distribution,
+            konst(&d.alpha_u)?,
+            konst(&d.alpha_v)?,
+            WalkMaterial::Dielectric { eta: d.eta },
+        )),
+        other => Err(format!(
+            "no microsurface random walk for '{}' (only roughconductor and roughdielectric)",
+            other.plugin_name()
+        )),
+    }
+}
+
+/// Bins of the lobe comparison: uniform in cosθ (equal solid angle) on each hemisphere, and in
+/// φ.
+pub const LOBE_MU_BINS: usize = 12;
+pub const LOBE_PHI_BINS: usize = 16;
+
+/// How a material's scattering for one incidence compares with the random walk's.
+#[derive(Clone, Copy, Debug)]
+pub struct Agreement {
+    /// Directional albedo (R + T) per channel, the model's and the walk's, with standard errors.
+    pub model: [f64; 3],
+    pub walk: [f64; 3],
+    pub model_err: [f64; 3],
+    pub walk_err: [f64; 3],
+    /// Transmitted part of the albedo (channel mean), model and walk.
+    pub model_t: f64,
+    pub walk_t: f64,
+    /// Largest relative albedo difference over the channels, |model − walk| / walk.
+    pub albedo_rel: f64,
+    /// Lobe shape: the total-variation distance ½ Σ|p − q| between the two energy histograms,
+    /// each normalised to 1 (the fraction of the scattered energy that lands in different
+    /// bins), over [`LOBE_MU_BINS`] × [`LOBE_PHI_BINS`] bins per hemisphere.
+    pub lobe_tv: f64,
+    /// The same distance between two independent halves of the walk's samples, divided by √2:
+    /// the value `lobe_tv` takes from sampling noise alone when the lobes are identical.
+    pub lobe_noise: f64,
+}
+
+fn lobe_bin(w: Vec3) -> usize {
+    let hemi = (w.z < 0.0) as usize;
+    let mu = ((w.z.abs() * LOBE_MU_BINS as f32) as usize).min(LOBE_MU_BINS - 1);
+    let phi = w.y.atan2(w.x) / (2.0 * std::f32::consts::PI) + 0.5;
+    let p = ((phi * LOBE_PHI_BINS as f32) as usize).min(LOBE_PHI_BINS - 1);
+    (hemi * LOBE_MU_BINS + mu) * LOBE_PHI_BINS + p
+}
+
+fn total_variation(a: &[f64], b: &[f64]) -> f64 {
+    let (sa, sb): (f64, f64) = (a.iter().sum(), b.iter().sum());
+    if sa <= 0.0 || sb <= 0.0 {
+        return 1.0;
+    }
+    0.5 * a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (x / sa - y / sb).abs())
+        .sum::<f64>()
+}
+
+/// Compare `model` (importance transport, its own sampling) with `walk` for incidence `wi`,
+/// `samples` samples each.
+pub fn compare<B: crate::bsdf::BsdfModel + ?Sized>(
+    model: &B,
+    walk: &MicrosurfaceWalk,
+    wi: Vec3,
+    samples: usize,
+    seed: u64,
+) -> Agreement {
+    let bins = 2 * LOBE_MU_BINS * LOBE_PHI_BINS;
+    let ctx = crate::bsdf::BsdfContext::IMPORTANCE;
+    let sp = crate::bsdf::ShadingPoint::default();
+    let mut hm = vec![0.0f64; bins];
+    let mut hw = [vec![0.0f64; bins], vec![0.0f64; bins]];
+    let (mut sm, mut sm2, mut sw, mut sw2) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3], [0.0f64; 3]);
+    let (mut tm, mut tw) = (0.0f64, 0.0f64);
+    let mut rng = Pcg32::new(seed, 21);
+    for _ in 0..samples {
+        let u1 = rng.next_f32();
+        let u2 = rng.next_vec2();
+        if let Some(s) = model.sample(&ctx, &sp, wi, u1, u2) {
+            let w = s.weight.0.map(f64::from);
+            for c in 0..3 {
+                sm[c] += w[c];
+                sm2[c] += w[c] * w[c];
+            }
+            let mean = (w[0] + w[1] + w[2]) / 3.0;
+            hm[lobe_bin(s.wo)] += mean;
+            if s.wo.z * wi.z < 0.0 {
+                tm += mean;
+            }
+        }
+    }
+    let mut rng = Pcg32::new(seed, 22);
+    for i in 0..samples {
+        if let Some(s) = walk.sample(wi, &mut rng) {
+            let w = s.weight.0.map(f64::from);
+            for c in 0..3 {
+                sw[c] += w[c];
+                sw2[c] += w[c] * w[c];
+            }
+            let mean = (w[0] + w[1] + w[2]) / 3.0;
+            hw[i & 1][lobe_bin(s.wo)] += mean;
+            if s.wo.z * wi.z < 0.0 {
+                tw += mean;
+            }
+        }
+    }
+    let n = samples as f64;
+    let mean = |s: [f64; 3]| s.map(|v| v / n);
+    let err = |s: [f64; 3], s2: [f64; 3]| {
+        [0, 1, 2].map(|c| ((s2[c] / n - (s[c] / n).powi(2)).max(0.0) / n).sqrt())
+    };
+    let (model_a, walk_a) = (mean(sm), mean(sw));
+    let albedo_rel = (0..3)
+        .map(|c| (model_a[c] - walk_a[c]).abs() / walk_a[c].max(1e-12))
+        .fold(0.0, f64::max);
+    let hw_all: Vec<f64> = hw[0].iter().zip(&hw[1]).map(|(a, b)| a + b).collect();
+    Agreement {
+        model: model_a,
+        walk: walk_a,
+        model_err: err(sm, sm2),
+        walk_err: err(sw, sw2),
+        model_t: tm / n,
+        walk_t: tw / n,
+        albedo_rel,
+        lobe_tv: total_variation(&hm, &hw_all),
+        lobe_noise: total_variation(&hw[0], &hw[1]) / std::f64::consts::SQRT_2,
+    }
+}

@@ -95,6 +95,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "sample_visible",
             "smith_g1",
             "fresnel",
+            "multiscatter",
         ],
     ),
     ("sheen", &["reflectance", "roughness"]),
@@ -399,17 +400,20 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
                         ))
                     }
                 };
-                Bsdf::RoughPlastic(Box::new(RoughPlastic::new(
-                    distribution(&p)?,
-                    alpha,
-                    p.bool("sample_visible", true)?,
-                    rational_g1(&p)?,
-                    diffuse,
-                    specular,
-                    eta,
-                    nonlinear,
-                    fresnel,
-                )))
+                Bsdf::RoughPlastic(Box::new(
+                    RoughPlastic::new(
+                        distribution(&p)?,
+                        alpha,
+                        p.bool("sample_visible", true)?,
+                        rational_g1(&p)?,
+                        diffuse,
+                        specular,
+                        eta,
+                        nonlinear,
+                        fresnel,
+                    )
+                    .with_multiscatter(p.bool("multiscatter", false)?),
+                ))
             }
         }
         "sheen" => Bsdf::Sheen(Sheen {

@@ -257,3 +257,32 @@ fn agreement_survey() {
         );
     }
 }
+
+#[test]
+fn plastic_furnace_and_suite() {
+    for d in ["ggx", "beckmann"] {
+        for a in [0.1, 0.5, 1.0] {
+            furnace(
+                &format!(
+                    "roughplastic distribution={d} alpha={a} diffuse_reflectance=1 multiscatter=true"
+                ),
+                &OUTSIDE,
+                30_000,
+            );
+        }
+    }
+    furnace(
+        "roughplastic distribution=ggx alpha=0.6 int_ior=2.0 diffuse_reflectance=1 nonlinear=true multiscatter=true",
+        &OUTSIDE,
+        30_000,
+    );
+    suite_passes(
+        "roughplastic distribution=ggx alpha=0.7 diffuse_reflectance=0.2,0.5,0.8 multiscatter=true",
+        100_000,
+    );
+    // a black base: the compensation lobe must still be sampled
+    suite_passes(
+        "roughplastic distribution=beckmann alpha=0.4 diffuse_reflectance=0 multiscatter=true",
+        100_000,
+    );
+}

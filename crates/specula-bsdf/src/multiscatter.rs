@@ -394,6 +394,13 @@ pub fn table_alpha(alpha_u: f32, alpha_v: f32) -> f32 {
     (alpha_u * alpha_v).max(0.0).sqrt().min(1.0)
 }
 
+/// Build everything a compensated conductor of this distribution reads (its table and the
+/// Fresnel-average rule), so that evaluation never initialises (allocates) anything.
+pub fn prepare_conductor(kind: MicrofacetType) {
+    conductor_table(kind);
+    conductor_fresnel_avg(Spectrum::splat(1.0), Spectrum::splat(1.0));
+}
+
 /// Cosine-weighted hemispherical average 2∫F(μ)μ dμ of a conductor's Fresnel reflectance.
 pub fn conductor_fresnel_avg(eta: Spectrum, k: Spectrum) -> Spectrum {
     static RULE: OnceLock<(Vec<f64>, Vec<f64>)> = OnceLock::new();

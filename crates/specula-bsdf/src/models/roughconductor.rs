@@ -43,6 +43,9 @@ impl RoughConductor {
     /// parameters are constant).
     pub fn with_multiscatter(mut self, on: bool) -> Self {
         self.multiscatter = on;
+        if on {
+            crate::multiscatter::prepare_conductor(self.distribution);
+        }
         self.ms_f_avg = match (&self.eta, &self.k, &self.specular_reflectance) {
             (SpectrumParam::Const(e), SpectrumParam::Const(k), SpectrumParam::Const(s)) if on => {
                 Some(conductor_fresnel_avg(*e, *k) * *s)

@@ -637,7 +637,7 @@ mod tests {
         }
     }
 
-    /// The table interpolates the albedo to within 0.3 % between its nodes.
+    /// The table interpolates the albedo to within 0.2 % between its nodes (measured: ≤ 1.1e-3).
     #[test]
     fn interpolation_error_is_small() {
         for kind in [MicrofacetType::Ggx, MicrofacetType::Beckmann] {
@@ -648,7 +648,7 @@ mod tests {
                     let exact = conductor_albedo(&d, mu, quad_res(kind)) as f32;
                     let tab = t.e(a, mu);
                     assert!(
-                        (exact - tab).abs() < 3e-3,
+                        (exact - tab).abs() < 2e-3,
                         "{kind:?} α={a} μ={mu}: table {tab} vs {exact}"
                     );
                 }

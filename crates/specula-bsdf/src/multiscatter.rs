@@ -3,8 +3,9 @@
 //! dielectric extension of their slides made reciprocal.
 //!
 //! A single-scattering microfacet BSDF loses the light that the Smith microsurface shadows
-//! after its first reflection or refraction: a white GGX conductor at α = 1 reflects about
-//! 0.41–0.6 of the light, depending on incidence. The compensation adds a lobe that returns
+//! after its first reflection or refraction: a white GGX conductor at α = 1 (separable
+//! masking-shadowing, as Mitsuba) reflects 0.31 of the light at normal incidence, 0.56 at 85°,
+//! 0.38 hemispherically averaged. The compensation adds a lobe that returns
 //! exactly the missing energy.
 //!
 //! # Method
@@ -51,8 +52,15 @@
 //! # Known limits
 //!
 //! - The lobe's shape is Kulla–Conty's separable approximation: the multiply scattered light
-//!   is spread more diffusely than it really is (it peaks around the specular direction; see
-//!   `microsurface_walk`, the exact reference, and the agreement tests).
+//!   is spread more diffusely than it really is (it peaks around the specular direction). Against
+//!   the exact random walk ([`crate::models::microsurface_walk`], `specula brdf multiscatter`):
+//!   white albedo (R + T) within 0.2 %; the distance between the binned lobes (total
+//!   variation, noise ≈ 0.015) 0.02–0.07 at most incidences, up to 0.14 for a GGX α = 1
+//!   conductor at 85° and 0.22 for a GGX α = 1 dielectric at 75°.
+//! - Coloured conductors: the colour term is right where F is high (copper, gold red: within
+//!   2 % of the walk) but too dark where F is low (gold blue at α = 0.8: 5–14 % low), partly
+//!   because the single-scattering lobe uses the separable G1·G1, which leaves more of the
+//!   energy to the F_avg-weighted compensation than the walk's height-correlated masking.
 //! - Constant anisotropic roughness (α_u ≠ α_v) gets its own table over (azimuth, √μ)
 //!   ([`conductor_table_aniso`], [`PHI_RES`] azimuths, built with the material) and E_avg
 //!   averaged over azimuths; the compensation lobe then depends on the azimuths of ωi and ωo

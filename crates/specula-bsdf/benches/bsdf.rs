@@ -46,6 +46,21 @@ const MODELS: &[(&str, &str, Domain)] = &[
         "roughconductor material=Cu distribution=ggx alpha_u=0.05 alpha_v=0.3",
         Domain::Reflection,
     ),
+    (
+        "roughconductor_ggx_ms",
+        "roughconductor material=Cu distribution=ggx alpha=0.2 multiscatter=true",
+        Domain::Reflection,
+    ),
+    (
+        "roughconductor_beckmann_ms",
+        "roughconductor material=Cu distribution=beckmann alpha=0.2 multiscatter=true",
+        Domain::Reflection,
+    ),
+    (
+        "roughconductor_ggx_aniso_ms",
+        "roughconductor material=Cu distribution=ggx alpha_u=0.05 alpha_v=0.3 multiscatter=true",
+        Domain::Reflection,
+    ),
     ("dielectric", "dielectric int_ior=1.5", Domain::Sphere),
     (
         "thindielectric",
@@ -58,6 +73,11 @@ const MODELS: &[(&str, &str, Domain)] = &[
         Domain::Sphere,
     ),
     (
+        "roughdielectric_ggx_ms",
+        "roughdielectric int_ior=1.5 distribution=ggx alpha=0.2 multiscatter=true",
+        Domain::Sphere,
+    ),
+    (
         "plastic",
         "plastic diffuse_reflectance=0.5",
         Domain::Reflection,
@@ -65,6 +85,11 @@ const MODELS: &[(&str, &str, Domain)] = &[
     (
         "roughplastic_ggx",
         "roughplastic diffuse_reflectance=0.5 distribution=ggx alpha=0.1",
+        Domain::Reflection,
+    ),
+    (
+        "roughplastic_ggx_ms",
+        "roughplastic diffuse_reflectance=0.5 distribution=ggx alpha=0.1 multiscatter=true",
         Domain::Reflection,
     ),
     (

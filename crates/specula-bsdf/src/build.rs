@@ -30,6 +30,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "alpha_v",
             "sample_visible",
             "smith_g1",
+            "multiscatter",
         ],
     ),
     (
@@ -66,6 +67,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "sample_visible",
             "smith_g1",
             "fresnel",
+            "multiscatter",
         ],
     ),
     (
@@ -93,6 +95,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "sample_visible",
             "smith_g1",
             "fresnel",
+            "multiscatter",
         ],
     ),
     ("sheen", &["reflectance", "roughness"]),
@@ -319,16 +322,22 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
             let (au, av) = roughness(&p, true)?;
             check_alpha(&p, &au)?;
             check_alpha(&p, &av)?;
-            Bsdf::RoughConductor(RoughConductor {
-                distribution: distribution(&p)?,
-                alpha_u: au,
-                alpha_v: av,
-                sample_visible: p.bool("sample_visible", true)?,
-                rational_g1: rational_g1(&p)?,
-                eta,
-                k,
-                specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
-            })
+            Bsdf::RoughConductor(
+                RoughConductor {
+                    distribution: distribution(&p)?,
+                    alpha_u: au,
+                    alpha_v: av,
+                    sample_visible: p.bool("sample_visible", true)?,
+                    rational_g1: rational_g1(&p)?,
+                    eta,
+                    k,
+                    specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
+                    multiscatter: false,
+                    ms_f_avg: None,
+                    ms_aniso: None,
+                }
+                .with_multiscatter(p.bool("multiscatter", false)?),
+            )
         }
         "dielectric" => Bsdf::Dielectric(Dielectric {
             eta: eta(&p, "bk7")?,
@@ -346,17 +355,21 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
             let (au, av) = roughness(&p, true)?;
             check_alpha(&p, &au)?;
             check_alpha(&p, &av)?;
-            Bsdf::RoughDielectric(RoughDielectric {
-                distribution: distribution(&p)?,
-                alpha_u: au,
-                alpha_v: av,
-                sample_visible: p.bool("sample_visible", true)?,
-                rational_g1: rational_g1(&p)?,
-                eta: eta(&p, "bk7")?,
-                specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
-                specular_transmittance: p.spectrum("specular_transmittance", 1.0)?,
-                fresnel: fresnel_mode(&p)?,
-            })
+            Bsdf::RoughDielectric(
+                RoughDielectric {
+                    distribution: distribution(&p)?,
+                    alpha_u: au,
+                    alpha_v: av,
+                    sample_visible: p.bool("sample_visible", true)?,
+                    rational_g1: rational_g1(&p)?,
+                    eta: eta(&p, "bk7")?,
+                    specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
+                    specular_transmittance: p.spectrum("specular_transmittance", 1.0)?,
+                    fresnel: fresnel_mode(&p)?,
+                    multiscatter: None,
+                }
+                .with_multiscatter(p.bool("multiscatter", false)?),
+            )
         }
         "plastic" | "roughplastic" => {
             let eta = eta(&p, "polypropylene")?;
@@ -389,17 +402,20 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
                         ))
                     }
                 };
-                Bsdf::RoughPlastic(Box::new(RoughPlastic::new(
-                    distribution(&p)?,
-                    alpha,
-                    p.bool("sample_visible", true)?,
-                    rational_g1(&p)?,
-                    diffuse,
-                    specular,
-                    eta,
-                    nonlinear,
-                    fresnel,
-                )))
+                Bsdf::RoughPlastic(Box::new(
+                    RoughPlastic::new(
+                        distribution(&p)?,
+                        alpha,
+                        p.bool("sample_visible", true)?,
+                        rational_g1(&p)?,
+                        diffuse,
+                        specular,
+                        eta,
+                        nonlinear,
+                        fresnel,
+                    )
+                    .with_multiscatter(p.bool("multiscatter", false)?),
+                ))
             }
         }
         "sheen" => Bsdf::Sheen(Sheen {

@@ -25,6 +25,7 @@ pub mod math;
 pub mod measured;
 pub mod microfacet;
 pub mod models;
+pub mod multiscatter;
 pub mod props;
 pub mod quad;
 pub mod rng;

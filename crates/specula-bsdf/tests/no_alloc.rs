@@ -45,6 +45,10 @@ fn hot_paths_do_not_allocate() {
         "principledthin spec_trans=0.5 diff_trans=0.8 sheen=0.5 spec_tint=0.5",
         "twosided { roughconductor alpha=0.2 }",
         "blendbsdf weight=0.4 { diffuse } { plastic }",
+        "roughconductor distribution=ggx alpha=0.7 material=Au multiscatter=true",
+        "roughconductor distribution=beckmann alpha_u=0.1 alpha_v=0.5 multiscatter=true",
+        "roughdielectric distribution=ggx alpha=0.6 multiscatter=true",
+        "roughplastic distribution=beckmann alpha=0.4 multiscatter=true",
     ];
     // build everything (which may allocate) before counting
     let models: Vec<_> = specs.iter().map(|s| parse_spec(s).unwrap()).collect();

@@ -61,6 +61,14 @@ pub enum BrdfCommand {
     ///
     /// Example: `specula brdf fit copper.binary --model ggx`
     Fit(crate::fit::FitArgs),
+    /// Energy compensation before and after: for a roughconductor, roughdielectric or
+    /// roughplastic spec, the directional albedo (R + T) per incidence angle with
+    /// multiscatter=false (single scattering, Mitsuba's model) and multiscatter=true (Kulla &
+    /// Conty), and for conductors and dielectrics the exact random walk on the microsurface
+    /// (Heitz et al. 2016) with each model's lobe distance to it.
+    ///
+    /// Example: `specula brdf multiscatter "roughconductor distribution=ggx alpha=1"`
+    Multiscatter(crate::multiscatter::MultiscatterArgs),
 }
 
 #[derive(Debug, Args)]
@@ -108,6 +116,7 @@ pub fn run(cmd: BrdfCommand, out: &mut dyn Write) -> Result<(), CliError> {
         BrdfCommand::Albedo(args) => crate::plot::albedo::run(&args, out),
         BrdfCommand::Measure(args) => crate::fit::measure(&args, out),
         BrdfCommand::Fit(args) => crate::fit::fit(&args, out),
+        BrdfCommand::Multiscatter(args) => crate::multiscatter::run(&args, out),
     }
 }
 
@@ -212,7 +221,7 @@ fn list(out: &mut dyn Write) -> Result<(), CliError> {
     const W: usize = 96;
     writeln!(
         out,
-        "Material plugins (Mitsuba 3 names and parameters; `sheen` and `fresnel=` are Specula \
+        "Material plugins (Mitsuba 3 names and parameters; `sheen`, `fresnel=` and `multiscatter=` are Specula \
          extensions):"
     )?;
     for (name, params) in PLUGINS {

@@ -10,6 +10,7 @@ mod fit;
 mod fresnel;
 mod gallery;
 mod material;
+mod multiscatter;
 mod output;
 mod phase;
 mod plot;

@@ -8,6 +8,7 @@ pub mod conductor;
 pub mod dielectric;
 pub mod diffuse;
 pub mod mask;
+pub mod microsurface_walk;
 pub mod normalmap;
 pub mod null;
 pub mod perturbed;

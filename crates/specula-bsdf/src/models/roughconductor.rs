@@ -1,13 +1,22 @@
 //! `roughconductor`: a Cook–Torrance microfacet metal, f = F·D·G / (4 cosθi cosθo), with
 //! Beckmann or GGX, isotropic or anisotropic (brushed metal: α_u ≠ α_v), visible-normal
 //! sampling by default (Mitsuba 3 `roughconductor`).
+//!
+//! Specula option `multiscatter` (default `false`, Mitsuba's model): add Kulla & Conty's
+//! energy-compensation lobe, so that a white rough conductor reflects all the light at every
+//! roughness and incidence (see [`crate::multiscatter`] for the method and its limits).
 
 use crate::bsdf::*;
 use crate::frame::reflect;
 use crate::fresnel::fresnel_conductor_rgb;
 use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
+use crate::multiscatter::{
+    conductor_fresnel_avg, conductor_lobe, conductor_table, conductor_table_aniso, folded_phi,
+    table_alpha, EnergyTable,
+};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
+use std::sync::Arc;
 
 #[derive(Clone, Debug)]
 pub struct RoughConductor {
@@ -20,9 +29,127 @@ pub struct RoughConductor {
     pub eta: SpectrumParam,
     pub k: SpectrumParam,
     pub specular_reflectance: SpectrumParam,
+    /// Kulla–Conty energy compensation (Specula's `multiscatter`).
+    pub multiscatter: bool,
+    /// F_avg·specular_reflectance when `eta`, `k` and `specular_reflectance` are constant
+    /// (see [`RoughConductor::with_multiscatter`]); computed per evaluation otherwise.
+    pub ms_f_avg: Option<Spectrum>,
+    /// The albedo table of a constant anisotropic roughness (built by `with_multiscatter`).
+    pub ms_aniso: Option<Arc<EnergyTable>>,
 }
 
 impl RoughConductor {
+    /// Switch the energy compensation on or off (precomputing the Fresnel average when the
+    /// parameters are constant).
+    pub fn with_multiscatter(mut self, on: bool) -> Self {
+        self.multiscatter = on;
+        if on {
+            crate::multiscatter::prepare_conductor(self.distribution);
+        }
+        self.ms_f_avg = match (&self.eta, &self.k, &self.specular_reflectance) {
+            (SpectrumParam::Const(e), SpectrumParam::Const(k), SpectrumParam::Const(s)) if on => {
+                Some(conductor_fresnel_avg(*e, *k) * *s)
+            }
+            _ => None,
+        };
+        self.ms_aniso = match (&self.alpha_u, &self.alpha_v) {
+            (FloatParam::Const(u), FloatParam::Const(v)) if on && u != v => Some(Arc::new(
+                conductor_table_aniso(self.distribution, u.min(1.0), v.min(1.0)),
+            )),
+            _ => None,
+        };
+        self
+    }
+
+    /// (E(μi), E(μo), E_avg) of the white single-scattering model.
+    #[inline]
+    fn ms_energy(&self, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (f32, f32, f32) {
+        if let Some(t) = &self.ms_aniso {
+            return (
+                t.e(folded_phi(wi), wi.z),
+                t.e(folded_phi(wo), wo.z),
+                t.e_aniso_avg(),
+            );
+        }
+        let t = conductor_table(self.distribution);
+        let a = table_alpha(self.alpha_u.eval(sp), self.alpha_v.eval(sp));
+        (t.e(a, wi.z), t.e(a, wo.z), t.e_avg(a))
+    }
+
+    #[inline]
+    fn f_avg(&self, sp: &ShadingPoint) -> Spectrum {
+        match self.ms_f_avg {
+            Some(f) => f,
+            None => {
+                conductor_fresnel_avg(self.eta.eval(sp), self.k.eval(sp))
+                    * self.specular_reflectance.eval(sp)
+            }
+        }
+    }
+
+    /// The single-scattering value and pdf.
+    #[inline]
+    fn eval_pdf_ss(&self, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
+        let h = (wi + wo).normalize();
+        let distr = self.distr(sp);
+        let d = distr.eval(h);
+        if d == 0.0 {
+            // no microfacet there: nothing reflected, nor sampled
+            return (Spectrum::ZERO, 0.0);
+        }
+        let (dwi, dwo) = (wi.dot(h), wo.dot(h));
+        let g1_i = distr.smith_g1(wi, h);
+        let g = g1_i * distr.smith_g1(wo, h);
+        let value = self.fresnel(sp, dwi) * (d * g / (4.0 * wi.z * wo.z));
+        let pdf = if dwi <= 0.0 || dwo <= 0.0 {
+            0.0
+        } else if distr.sample_visible {
+            d * g1_i * dwi.abs() / wi.z / (4.0 * dwo)
+        } else {
+            d * h.z / (4.0 * dwo)
+        };
+        (value, pdf)
+    }
+
+    /// `eval_pdf` with the compensation lobe (wi, wo above the surface).
+    fn eval_pdf_ms(&self, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
+        let (v, p) = self.eval_pdf_ss(sp, wi, wo);
+        let (ei, eo, eavg) = self.ms_energy(sp, wi, wo);
+        let p_ms = 1.0 - ei;
+        (
+            v + conductor_lobe(ei, eo, eavg, self.f_avg(sp)),
+            (1.0 - p_ms) * p + p_ms * wo.z * std::f32::consts::FRAC_1_PI,
+        )
+    }
+
+    fn sample_ms(&self, sp: &ShadingPoint, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
+        let p_ms = 1.0 - self.ms_energy(sp, wi, wi).0;
+        let wo = if u1 < p_ms {
+            crate::warp::square_to_cosine_hemisphere(u2)
+        } else {
+            let (m, pdf_m) = self.distr(sp).sample(wi, u2);
+            let wo = reflect(wi, m);
+            if pdf_m <= 0.0 || wo.dot(m) <= 0.0 {
+                return None;
+            }
+            wo
+        };
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let (value, pdf) = self.eval_pdf_ms(sp, wi, wo);
+        if !(pdf > 0.0 && pdf.is_finite()) {
+            return None;
+        }
+        Some(BsdfSample {
+            wo,
+            weight: value * (wo.z / pdf),
+            pdf,
+            lobe: LobeFlags::GLOSSY_REFLECTION,
+            eta: 1.0,
+        })
+    }
+
     #[inline]
     fn distr(&self, sp: &ShadingPoint) -> MicrofacetDistribution {
         MicrofacetDistribution::new(
@@ -55,6 +182,9 @@ impl BsdfModel for RoughConductor {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return 0.0;
         }
+        if self.multiscatter {
+            return self.eval_pdf_ms(sp, wi, wo).1;
+        }
         let m = (wi + wo).normalize();
         let (dwi, dwo) = (wi.dot(m), wo.dot(m));
         if dwi <= 0.0 || dwo <= 0.0 {
@@ -70,25 +200,10 @@ impl BsdfModel for RoughConductor {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return (Spectrum::ZERO, 0.0);
         }
-        let h = (wi + wo).normalize();
-        let distr = self.distr(sp);
-        let d = distr.eval(h);
-        if d == 0.0 {
-            // no microfacet there: nothing reflected, nor sampled
-            return (Spectrum::ZERO, 0.0);
+        if self.multiscatter {
+            return self.eval_pdf_ms(sp, wi, wo);
         }
-        let (dwi, dwo) = (wi.dot(h), wo.dot(h));
-        let g1_i = distr.smith_g1(wi, h);
-        let g = g1_i * distr.smith_g1(wo, h);
-        let value = self.fresnel(sp, dwi) * (d * g / (4.0 * wi.z * wo.z));
-        let pdf = if dwi <= 0.0 || dwo <= 0.0 {
-            0.0
-        } else if distr.sample_visible {
-            d * g1_i * dwi.abs() / wi.z / (4.0 * dwo)
-        } else {
-            d * h.z / (4.0 * dwo)
-        };
-        (value, pdf)
+        self.eval_pdf_ss(sp, wi, wo)
     }
 
     #[inline]
@@ -97,11 +212,14 @@ impl BsdfModel for RoughConductor {
         _: &BsdfContext,
         sp: &ShadingPoint,
         wi: Vec3,
-        _: f32,
+        u1: f32,
         u2: Vec2,
     ) -> Option<BsdfSample> {
         if wi.z <= 0.0 {
             return None;
+        }
+        if self.multiscatter {
+            return self.sample_ms(sp, wi, u1, u2);
         }
         let distr = self.distr(sp);
         let (m, pdf_m) = distr.sample(wi, u2);

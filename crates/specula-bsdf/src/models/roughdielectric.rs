@@ -5,13 +5,21 @@
 //! Reflection: f_r = F·D·G / (4|cosθi||cosθo|).
 //! Transmission: f_t = |wi·m||wo·m| / (|cosθi||cosθo|) · η²(1−F)·D·G / (wi·m + η wo·m)²,
 //! scaled by 1/η² when transporting radiance (the solid-angle compression at the interface).
+//!
+//! Specula option `multiscatter` (default `false`, Mitsuba's model): add Kulla & Conty's
+//! reciprocal energy-compensation lobes (reflection and transmission, from both sides), so
+//! that a white rough interface scatters R + T = 1 at every roughness and incidence (see
+//! [`crate::multiscatter`]; the tables depend on η and are built with the material).
 
 use crate::bsdf::*;
 use crate::frame::{reflect, refract};
 use crate::fresnel::FresnelMode;
 use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
+use crate::multiscatter::{table_alpha, DielectricEnergy};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+use std::sync::Arc;
 
 #[derive(Clone, Debug)]
 pub struct RoughDielectric {
@@ -26,6 +34,8 @@ pub struct RoughDielectric {
     pub specular_reflectance: SpectrumParam,
     pub specular_transmittance: SpectrumParam,
     pub fresnel: FresnelMode,
+    /// Kulla–Conty energy compensation (Specula's `multiscatter`): its tables when on.
+    pub multiscatter: Option<Arc<DielectricEnergy>>,
 }
 
 /// The generalised half vector of a pair of directions (Walter et al. 2007, eq. 16).
@@ -73,6 +83,64 @@ fn half_vector(wi: Vec3, wo: Vec3, eta_rel: f32) -> Option<HalfVector> {
 }
 
 impl RoughDielectric {
+    /// Switch the energy compensation on (building or fetching its tables) or off.
+    pub fn with_multiscatter(mut self, on: bool) -> Self {
+        self.multiscatter = on.then(|| {
+            let alpha = match (&self.alpha_u, &self.alpha_v) {
+                (FloatParam::Const(u), FloatParam::Const(v)) => Some(table_alpha(*u, *v)),
+                _ => None,
+            };
+            DielectricEnergy::get(self.distribution, self.eta, self.fresnel, alpha)
+        });
+        self
+    }
+
+    /// The single-scattering model plus the compensation lobes.
+    fn eval_pdf_ms(
+        &self,
+        ms: &DielectricEnergy,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        wo: Vec3,
+    ) -> (Spectrum, f32) {
+        let (v, p) = self.eval_pdf_ss(ctx, sp, wi, wo);
+        if wi.z == 0.0 || wo.z == 0.0 {
+            return (v, p);
+        }
+        let (p_ms, refl) = self.ms_probs(ms, sp, wi);
+        let q = ms.at(table_alpha(self.alpha_u.eval(sp), self.alpha_v.eval(sp)));
+        let (fr, ft) = ms.lobes(&q, wi, wo);
+        let cos_o = wo.z.abs() * FRAC_1_PI;
+        if wi.z * wo.z > 0.0 {
+            (
+                v + self.specular_reflectance.eval(sp) * fr,
+                (1.0 - p_ms) * p + p_ms * refl * cos_o,
+            )
+        } else {
+            let scale = match ctx.mode {
+                TransportMode::Radiance if wi.z > 0.0 => 1.0 / (self.eta * self.eta),
+                TransportMode::Radiance => self.eta * self.eta,
+                TransportMode::Importance => 1.0,
+            };
+            (
+                v + self.specular_transmittance.eval(sp) * (ft * scale),
+                (1.0 - p_ms) * p + p_ms * (1.0 - refl) * cos_o,
+            )
+        }
+    }
+
+    /// The probability of sampling the compensation, and of it reflecting.
+    #[inline]
+    fn ms_probs(&self, ms: &DielectricEnergy, sp: &ShadingPoint, wi: Vec3) -> (f32, f32) {
+        let q = ms.at(table_alpha(self.alpha_u.eval(sp), self.alpha_v.eval(sp)));
+        let outside = wi.z > 0.0;
+        (
+            1.0 - ms.e(&q, outside, wi.z),
+            ms.reflect_fraction(&q, outside),
+        )
+    }
+
     #[inline]
     fn distr(&self, sp: &ShadingPoint) -> MicrofacetDistribution {
         MicrofacetDistribution::new(
@@ -112,8 +180,70 @@ impl BsdfModel for RoughDielectric {
         self.eval_pdf(ctx, sp, wi, wo).1
     }
 
-    /// f and the sampling density from one half-vector, D, G1 and Fresnel evaluation.
     fn eval_pdf(
+        &self,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        wo: Vec3,
+    ) -> (Spectrum, f32) {
+        match &self.multiscatter {
+            Some(ms) => self.eval_pdf_ms(ms, ctx, sp, wi, wo),
+            None => self.eval_pdf_ss(ctx, sp, wi, wo),
+        }
+    }
+
+    fn sample(
+        &self,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample> {
+        let Some(ms) = &self.multiscatter else {
+            return self.sample_ss(ctx, sp, wi, u1, u2);
+        };
+        if wi.z == 0.0 {
+            return None;
+        }
+        let (p_ms, refl) = self.ms_probs(ms, sp, wi);
+        let (wo, lobe, eta) = if u1 < p_ms {
+            let up = crate::warp::square_to_cosine_hemisphere(u2);
+            if u1 < p_ms * refl {
+                let wo = if wi.z > 0.0 { up } else { -up };
+                (wo, LobeFlags::GLOSSY_REFLECTION, 1.0)
+            } else {
+                let (wo, eta) = if wi.z > 0.0 {
+                    (-up, self.eta)
+                } else {
+                    (up, 1.0 / self.eta)
+                };
+                (wo, LobeFlags::GLOSSY_TRANSMISSION, eta)
+            }
+        } else {
+            let u = ((u1 - p_ms) / (1.0 - p_ms)).clamp(0.0, 1.0 - f32::EPSILON);
+            let s = self.sample_ss(ctx, sp, wi, u, u2)?;
+            (s.wo, s.lobe, s.eta)
+        };
+        let (value, pdf) = self.eval_pdf_ms(ms, ctx, sp, wi, wo);
+        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
+            return None;
+        }
+        Some(BsdfSample {
+            wo,
+            weight: value * (wo.z.abs() / pdf),
+            pdf,
+            lobe,
+            eta,
+        })
+    }
+}
+
+impl RoughDielectric {
+    /// f and the sampling density of the single-scattering model from one half-vector, D, G1
+    /// and Fresnel evaluation.
+    fn eval_pdf_ss(
         &self,
         ctx: &BsdfContext,
         sp: &ShadingPoint,
@@ -182,7 +312,7 @@ impl BsdfModel for RoughDielectric {
         (value, (pdf_m * lobe_prob * dwh_dwo).abs())
     }
 
-    fn sample(
+    fn sample_ss(
         &self,
         ctx: &BsdfContext,
         sp: &ShadingPoint,
@@ -221,7 +351,7 @@ impl BsdfModel for RoughDielectric {
         // Report exactly what `eval` and `pdf` give for this direction: recovering m from a
         // refraction close to the critical angle is ill-conditioned in single precision, so
         // closed forms in the sampled m would disagree with `pdf` by up to ~1e-3.
-        let (value, pdf) = self.eval_pdf(ctx, sp, wi, wo);
+        let (value, pdf) = self.eval_pdf_ss(ctx, sp, wi, wo);
         if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
             return None;
         }

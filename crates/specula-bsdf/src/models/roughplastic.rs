@@ -4,15 +4,25 @@
 //! T(θ) = ∫ (1−F)·G1(refracted)·D_wi dm (the light that crosses the coat), precomputed in a
 //! 64-entry table over cosθ and interpolated linearly, and its inter-reflections are summed with the coat's hemispherical
 //! internal reflectance, exactly as Mitsuba does so that renders match.
+//!
+//! Specula option `multiscatter` (default `false`, Mitsuba's model): the coat becomes Kulla &
+//! Conty's energy-compensated rough interface ([`crate::multiscatter`]). The energy its single
+//! scattering loses, 1 − E(μ), is split as for `roughdielectric`: a reflected part is added as
+//! a compensation lobe to the coat's glossy reflection, the transmitted part enters the base
+//! (it is added to the coat transmittance T(μ)), and the internal reflectance is the one that
+//! reciprocity implies, 1 − (2∫T(μ)μ dμ)/η², so that a white base under the coat reflects all
+//! the light (white furnace 1 ± 0.5 %).
 
 use crate::bsdf::*;
 use crate::frame::{reflect, refract};
 use crate::fresnel::FresnelMode;
 use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
+use crate::multiscatter::DielectricEnergy;
 use crate::spectrum::Spectrum;
 use crate::warp;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
+use std::sync::Arc;
 
 /// Resolution of the transmittance table over cosθ.
 pub const TRANSMITTANCE_RES: usize = 64;
@@ -32,6 +42,8 @@ pub struct RoughPlastic {
     specular_sampling_weight: f32,
     external_transmittance: [f32; TRANSMITTANCE_RES],
     internal_reflectance: f32,
+    /// The coat's energy tables when `multiscatter` is on.
+    multiscatter: Option<Arc<DielectricEnergy>>,
 }
 
 /// ∫ g(m) D_wi(m) dm over the normals visible from `wi` (upper hemisphere), by Gauss–Legendre
@@ -195,7 +207,46 @@ impl RoughPlastic {
             specular_sampling_weight,
             external_transmittance,
             internal_reflectance,
+            multiscatter: None,
         }
+    }
+
+    /// Switch the coat's energy compensation on (Specula's `multiscatter`; see the module).
+    pub fn with_multiscatter(mut self, on: bool) -> Self {
+        if !on {
+            return self;
+        }
+        let alpha = self.alpha.min(1.0);
+        let ms = DielectricEnergy::get(self.distribution, self.eta, self.fresnel, Some(alpha));
+        let q = ms.at(alpha);
+        let into_base = 1.0 - ms.reflect_fraction(&q, true);
+        for (i, t) in self.external_transmittance.iter_mut().enumerate() {
+            let mu = i as f32 / (TRANSMITTANCE_RES - 1) as f32;
+            *t = ms.t_out.e(alpha, mu) + into_base * (1.0 - ms.e_out.e(alpha, mu));
+        }
+        // 2∫T(μ)μ dμ of the piecewise-linear table (two-point Gauss–Legendre is exact)
+        let h = 1.0 / (TRANSMITTANCE_RES - 1) as f64;
+        let mut t_avg = 0.0f64;
+        for i in 0..TRANSMITTANCE_RES - 1 {
+            for s in [0.5 - 0.5 / 3f64.sqrt(), 0.5 + 0.5 / 3f64.sqrt()] {
+                let mu = (i as f64 + s) * h;
+                let t = self.external_transmittance[i] as f64 * (1.0 - s)
+                    + self.external_transmittance[i + 1] as f64 * s;
+                t_avg += 2.0 * t * mu * 0.5 * h;
+            }
+        }
+        self.internal_reflectance = (1.0 - t_avg / (self.eta as f64).powi(2)) as f32;
+        self.multiscatter = Some(ms);
+        self
+    }
+
+    /// The coat's compensation lobe (reflection, outside) and its energy for `wi`.
+    #[inline]
+    fn ms_lobe(&self, ms: &DielectricEnergy, wi: Vec3, wo: Vec3) -> (f32, f32) {
+        let q = ms.at(self.alpha);
+        let (fr, _) = ms.lobes(&q, wi, wo);
+        let energy = ms.reflect_fraction(&q, true) * (1.0 - ms.e(&q, true, wi.z));
+        (fr, energy)
     }
 
     /// The coat's transmittance for a cosine (linear interpolation in the table).
@@ -223,10 +274,13 @@ impl RoughPlastic {
         .with_rational_g1(self.rational_g1)
     }
 
+    /// (specular, cosine) sampling probabilities; `ms_energy`: the energy of the compensation
+    /// lobe for wi (0 without `multiscatter`), which cosine sampling covers.
     #[inline]
-    fn lobe_probs(&self, t_i: f32) -> (f32, f32) {
+    fn lobe_probs(&self, t_i: f32, ms_energy: f32) -> (f32, f32) {
         let ps = (1.0 - t_i) * self.specular_sampling_weight;
-        let pd = t_i * (1.0 - self.specular_sampling_weight);
+        let pd =
+            t_i * (1.0 - self.specular_sampling_weight) + ms_energy * self.specular_sampling_weight;
         let ps = ps / (ps + pd);
         (ps, 1.0 - ps)
     }
@@ -246,7 +300,11 @@ impl BsdfModel for RoughPlastic {
         if ci <= 0.0 || co <= 0.0 {
             return 0.0;
         }
-        let (ps, pd) = self.lobe_probs(self.transmittance(ci));
+        let ms_energy = match &self.multiscatter {
+            Some(ms) => self.ms_lobe(ms, wi, wo).1,
+            None => 0.0,
+        };
+        let (ps, pd) = self.lobe_probs(self.transmittance(ci), ms_energy);
         let h = (wi + wo).normalize();
         let distr = self.distr();
         let spec = if self.sample_visible {
@@ -270,7 +328,11 @@ impl BsdfModel for RoughPlastic {
         let g1_i = distr.smith_g1(wi, h);
         let f = self.fresnel.eval(wi.dot(h), self.eta).r;
         let g = g1_i * distr.smith_g1(wo, h);
-        let spec = self.specular_reflectance.eval(sp) * (f * d * g / (4.0 * ci * co));
+        let (ms_value, ms_energy) = match &self.multiscatter {
+            Some(ms) => self.ms_lobe(ms, wi, wo),
+            None => (0.0, 0.0),
+        };
+        let spec = self.specular_reflectance.eval(sp) * (f * d * g / (4.0 * ci * co) + ms_value);
         let t_i = self.transmittance(ci);
         let t_o = self.transmittance(co);
         let rho = self.diffuse_reflectance.eval(sp);
@@ -280,7 +342,7 @@ impl BsdfModel for RoughPlastic {
             Spectrum::splat(1.0 - self.internal_reflectance)
         };
         let value = spec + rho / denom * (FRAC_1_PI / (self.eta * self.eta) * t_i * t_o);
-        let (ps, pd) = self.lobe_probs(t_i);
+        let (ps, pd) = self.lobe_probs(t_i, ms_energy);
         let spec_pdf = if self.sample_visible {
             d * g1_i / (4.0 * ci)
         } else {
@@ -301,7 +363,11 @@ impl BsdfModel for RoughPlastic {
         if wi.z <= 0.0 {
             return None;
         }
-        let (ps, _) = self.lobe_probs(self.transmittance(wi.z));
+        let ms_energy = match &self.multiscatter {
+            Some(ms) => self.ms_lobe(ms, wi, wi).1,
+            None => 0.0,
+        };
+        let (ps, _) = self.lobe_probs(self.transmittance(wi.z), ms_energy);
         let (wo, lobe) = if u1 < ps {
             let (m, _) = self.distr().sample(wi, u2);
             (reflect(wi, m), LobeFlags::GLOSSY_REFLECTION)

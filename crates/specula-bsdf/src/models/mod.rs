@@ -6,6 +6,7 @@ pub mod bumpmap;
 pub mod conductor;
 pub mod dielectric;
 pub mod diffuse;
+pub mod irawan;
 pub mod mask;
 pub mod normalmap;
 pub mod null;
@@ -23,6 +24,7 @@ pub use bumpmap::BumpMap;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use irawan::Irawan;
 pub use mask::Mask;
 pub use normalmap::NormalMap;
 pub use null::Null;
@@ -62,6 +64,8 @@ pub enum Bsdf {
     NormalMap(Box<NormalMap>),
     Mask(Box<Mask>),
     Null(Null),
+    /// Irawan & Marschner's woven cloth (Mitsuba 0.6's `irawan`).
+    Irawan(Box<Irawan>),
 }
 
 macro_rules! dispatch {
@@ -84,6 +88,7 @@ macro_rules! dispatch {
             Bsdf::NormalMap($b) => $e,
             Bsdf::Mask($b) => $e,
             Bsdf::Null($b) => $e,
+            Bsdf::Irawan($b) => $e,
         }
     };
 }
@@ -109,6 +114,7 @@ impl Bsdf {
             Bsdf::NormalMap(_) => "normalmap",
             Bsdf::Mask(_) => "mask",
             Bsdf::Null(_) => "null",
+            Bsdf::Irawan(_) => "irawan",
         }
     }
 }

@@ -120,6 +120,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "filename", "pattern", "repeatU", "repeatV", "warp_kd", "warp_ks", "weft_kd", "weft_ks",
         ],
     ),
+    ("velvet", &["reflectance", "sigma", "amplitude"]),
 ];
 
 /// Parameters a plugin accepts, or `None` for an unknown plugin.
@@ -574,6 +575,7 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
         })),
         "null" => Bsdf::Null(Null),
         "irawan" => Bsdf::Irawan(Box::new(Irawan::build(&p)?)),
+        "velvet" => Bsdf::Velvet(Velvet::build(&p)?),
         _ => unreachable!("plugin table and match agree"),
     };
     p.finish(valid)?;

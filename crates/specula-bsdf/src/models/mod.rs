@@ -18,6 +18,7 @@ pub mod roughplastic;
 pub mod sheen;
 pub mod thindielectric;
 pub mod twosided;
+pub mod velvet;
 
 pub use blend::Blend;
 pub use bumpmap::BumpMap;
@@ -35,6 +36,7 @@ pub use roughplastic::RoughPlastic;
 pub use sheen::Sheen;
 pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
+pub use velvet::Velvet;
 
 use crate::bsdf::*;
 use crate::fresnel::FresnelMode;
@@ -66,6 +68,8 @@ pub enum Bsdf {
     Null(Null),
     /// Irawan & Marschner's woven cloth (Mitsuba 0.6's `irawan`).
     Irawan(Box<Irawan>),
+    /// Ashikhmin & Premože's distribution-based velvet (a Specula extension).
+    Velvet(Velvet),
 }
 
 macro_rules! dispatch {
@@ -89,6 +93,7 @@ macro_rules! dispatch {
             Bsdf::Mask($b) => $e,
             Bsdf::Null($b) => $e,
             Bsdf::Irawan($b) => $e,
+            Bsdf::Velvet($b) => $e,
         }
     };
 }
@@ -115,6 +120,7 @@ impl Bsdf {
             Bsdf::Mask(_) => "mask",
             Bsdf::Null(_) => "null",
             Bsdf::Irawan(_) => "irawan",
+            Bsdf::Velvet(_) => "velvet",
         }
     }
 }

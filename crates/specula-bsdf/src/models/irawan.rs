@@ -50,8 +50,13 @@
 //! A yarn with width · sin(umax) ≥ length has no specular reflection (its spine would not
 //! fit its segment), as in Mitsuba: the weft of the built-in `twill` is such a yarn.
 //!
-//! **Sampling:** cosine-weighted, as Mitsuba 0.6 ("lacking a better sampling method");
-//! the sampled lobe is reported as glossy reflection.
+//! **Sampling:** Mitsuba 0.6 samples cosine-weighted directions only ("lacking a better
+//! sampling method"). Specula samples a mixture: half the samples are cosine-weighted; on a
+//! filament yarn the other half reflect ωi about a half vector drawn uniformly from the
+//! highlight window, the lune of half vectors whose inclination atan(h_y/h_z) in the yarn's
+//! frame lies where the filament term can be non-zero at the shading point (on staple
+//! yarns, whose window depends on the twist, all samples are cosine-weighted). `pdf` is the
+//! mixture's density; the sampled lobe is reported as glossy reflection.
 //!
 //! **Deviations from Mitsuba 0.6:** the normalisation constant is estimated with 2^17
 //! (not 10⁴) fixed-seed samples, so it differs from Mitsuba's by Mitsuba's own Monte Carlo
@@ -836,9 +841,9 @@ impl WeavePattern {
     }
 
     /// The yarn seen at texture coordinates `uv` (Mitsuba's convention: v runs down the
-    /// pattern), and the raw specular term there (before `ks` and the normalisation).
+    /// pattern) and where on it.
     #[inline]
-    fn specular(&self, repeat: Vec2, uv: Vec2, wi: Vec3, wo: Vec3) -> (&Yarn, f32) {
+    fn locate(&self, repeat: Vec2, uv: Vec2) -> Spot<'_> {
         let (tw, th) = (self.tile_width as f32, self.tile_height as f32);
         let x = uv.x * repeat.x * tw;
         let yy = (1.0 - uv.y) * repeat.y * th;
@@ -853,14 +858,11 @@ impl WeavePattern {
         );
         let mut px = x - center.x;
         let mut py = -(yy - center.y);
-        let (mut wi, mut wo) = (wi, wo);
         let (d_warp, d_weft) = if yarn.warp {
             (self.d_warp_umax_over_d_warp, self.d_warp_umax_over_d_weft)
         } else {
             // a weft yarn is a warp yarn turned by π/2 about the normal
             (px, py) = (-py, px);
-            wi = Vec3::new(-wi.y, wi.x, wi.z);
-            wo = Vec3::new(-wo.y, wo.x, wo.z);
             (self.d_weft_umax_over_d_warp, self.d_weft_umax_over_d_weft)
         };
         let mut umax = yarn.umax;
@@ -875,24 +877,38 @@ impl WeavePattern {
                     / self.period,
             );
             umax += r1 * d_warp + r2 * d_weft;
-            if !(umax > 0.0 && umax < FRAC_PI_2) {
-                return (yarn, 0.0);
-            }
         }
-        let u = py / (0.5 * yarn.length) * umax;
-        let v = px * PI / yarn.width;
+        Spot {
+            yarn,
+            center,
+            px,
+            py,
+            umax,
+            u: py / (0.5 * yarn.length) * umax,
+            v: px * PI / yarn.width,
+        }
+    }
+
+    /// The raw specular term (before `ks` and the normalisation) at `spot`.
+    #[inline]
+    fn specular_at(&self, spot: &Spot, wi: Vec3, wo: Vec3) -> f32 {
+        let (yarn, umax) = (spot.yarn, spot.umax);
+        if !(umax > 0.0 && umax < FRAC_PI_2) {
+            return 0.0;
+        }
+        let (wi, wo) = (spot.to_yarn(wi), spot.to_yarn(wo));
         let mut s = if yarn.psi != 0.0 {
-            self.staple(u, v, wi, wo, umax, yarn)
+            self.staple(spot.u, spot.v, wi, wo, umax, yarn)
         } else {
-            self.filament(u, v, wi, wo, umax, yarn)
+            self.filament(spot.u, spot.v, wi, wo, umax, yarn)
         };
         if s == 0.0 {
-            return (yarn, 0.0);
+            return 0.0;
         }
         if self.fineness > 0.0 {
             // a random intensity per fineness² area of texture (exponentially distributed)
-            let i1 = ((center.x + px) * self.fineness).max(0.0) as u32;
-            let i2 = ((center.y + py) * self.fineness).max(0.0) as u32;
+            let i1 = ((spot.center.x + spot.px) * self.fineness).max(0.0) as u32;
+            let i2 = ((spot.center.y + spot.py) * self.fineness).max(0.0) as u32;
             let xi = tea_float(i1, i2, 8);
             s *= (-xi.ln()).min(10.0);
         }
@@ -902,7 +918,79 @@ impl WeavePattern {
         } else {
             area / self.weft_area
         };
-        (yarn, if s.is_finite() { s.max(0.0) } else { 0.0 })
+        if s.is_finite() {
+            s.max(0.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// The yarn seen at `uv` and the raw specular term there.
+    #[inline]
+    fn specular(&self, repeat: Vec2, uv: Vec2, wi: Vec3, wo: Vec3) -> (&Yarn, f32) {
+        let spot = self.locate(repeat, uv);
+        (spot.yarn, self.specular_at(&spot, wi, wo))
+    }
+
+    /// For a filament yarn, the interval of half-vector inclinations γ = atan(h_y/h_z) (yarn
+    /// frame) where its specular term can be non-zero at `spot`: the highlight window
+    /// |clamp(γ) − u| < hWidth·umax of [`WeavePattern::filament`], within (−umax, umax).
+    /// `None` for staple yarns and where the yarn has no highlight.
+    #[inline]
+    fn highlight_window(&self, spot: &Spot) -> Option<(f32, f32)> {
+        let (yarn, umax) = (spot.yarn, spot.umax);
+        if yarn.psi != 0.0
+            || !(umax > 0.0 && umax < FRAC_PI_2)
+            || yarn.width * umax.sin() >= yarn.length
+            || yarn.ks.max_component() <= 0.0
+        {
+            return None;
+        }
+        // in units of γ: the clamp limit c and the half width of the window
+        let half = self.h_width * umax;
+        let c = umax - half;
+        let (mut lo, mut hi) = (spot.u - half, spot.u + half);
+        if (c - spot.u).abs() < half {
+            hi = umax;
+        }
+        if (-c - spot.u).abs() < half {
+            lo = -umax;
+        }
+        let (lo, hi) = (lo.max(-umax), hi.min(umax));
+        (hi > lo).then_some((lo, hi))
+    }
+}
+
+/// Where on the weave a shading point lies: the yarn, its segment's centre (cells), the
+/// offset from it (yarn frame), the inclination bound and the yarn coordinates (u, v).
+struct Spot<'a> {
+    yarn: &'a Yarn,
+    center: Vec2,
+    px: f32,
+    py: f32,
+    umax: f32,
+    u: f32,
+    v: f32,
+}
+
+impl Spot<'_> {
+    /// From the shading frame to the yarn's (a weft yarn's is turned by π/2).
+    #[inline]
+    fn to_yarn(&self, w: Vec3) -> Vec3 {
+        if self.yarn.warp {
+            w
+        } else {
+            Vec3::new(-w.y, w.x, w.z)
+        }
+    }
+    /// From the yarn's frame to the shading frame.
+    #[inline]
+    fn from_yarn(&self, w: Vec3) -> Vec3 {
+        if self.yarn.warp {
+            w
+        } else {
+            Vec3::new(w.y, -w.x, w.z)
+        }
     }
 }
 
@@ -984,6 +1072,35 @@ impl Irawan {
     }
 }
 
+/// The probability of sampling the highlight window of a filament yarn (the rest, and
+/// everything on staple yarns, is cosine-weighted).
+const WINDOW_FRACTION: f32 = 0.5;
+
+impl Irawan {
+    /// The density of `sample` for `wo` at `spot` with highlight window `window`.
+    #[inline]
+    fn mixture_pdf(&self, spot: &Spot, window: Option<(f32, f32)>, wi: Vec3, wo: Vec3) -> f32 {
+        let cosine = warp::square_to_cosine_hemisphere_pdf(wo);
+        let Some((lo, hi)) = window else {
+            return cosine;
+        };
+        if wo.z <= 0.0 {
+            return 0.0;
+        }
+        let h = (wi + wo).normalize();
+        let hy = spot.to_yarn(h);
+        let g = (hy.y / hy.z).atan();
+        let wih = wi.dot(h);
+        let band = if g >= lo && g <= hi && wih > 0.0 {
+            // uniform over the lune of half vectors, area 2 (hi − lo)
+            1.0 / (2.0 * (hi - lo) * 4.0 * wih)
+        } else {
+            0.0
+        };
+        (1.0 - WINDOW_FRACTION) * cosine + WINDOW_FRACTION * band
+    }
+}
+
 impl BsdfModel for Irawan {
     fn flags(&self) -> LobeFlags {
         LobeFlags::GLOSSY_REFLECTION | LobeFlags::DIFFUSE_REFLECTION
@@ -999,35 +1116,72 @@ impl BsdfModel for Irawan {
     }
 
     #[inline]
-    fn pdf(&self, _: &BsdfContext, _: &ShadingPoint, wi: Vec3, wo: Vec3) -> f32 {
+    fn pdf(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> f32 {
         if wi.z <= 0.0 {
             return 0.0;
         }
-        warp::square_to_cosine_hemisphere_pdf(wo)
+        let spot = self.weave.locate(self.repeat(), sp.uv);
+        let window = self.weave.highlight_window(&spot);
+        self.mixture_pdf(&spot, window, wi, wo)
+    }
+
+    #[inline]
+    fn eval_pdf(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
+        if wi.z <= 0.0 {
+            return (Spectrum::ZERO, 0.0);
+        }
+        let spot = self.weave.locate(self.repeat(), sp.uv);
+        let window = self.weave.highlight_window(&spot);
+        let pdf = self.mixture_pdf(&spot, window, wi, wo);
+        if wo.z <= 0.0 {
+            return (Spectrum::ZERO, pdf);
+        }
+        let s = self.weave.specular_at(&spot, wi, wo);
+        let f = spot.yarn.kd * FRAC_1_PI + spot.yarn.ks * (s * self.specular_normalization);
+        (f, pdf)
     }
 
     #[inline]
     fn sample(
         &self,
-        ctx: &BsdfContext,
+        _: &BsdfContext,
         sp: &ShadingPoint,
         wi: Vec3,
-        _: f32,
+        u1: f32,
         u2: Vec2,
     ) -> Option<BsdfSample> {
         if wi.z <= 0.0 {
             return None;
         }
-        let wo = warp::square_to_cosine_hemisphere(u2);
+        let spot = self.weave.locate(self.repeat(), sp.uv);
+        let window = self.weave.highlight_window(&spot);
+        let wo = match window {
+            Some((lo, hi)) if u1 < WINDOW_FRACTION => {
+                // a half vector uniform over the lune lo ≤ atan(h_y/h_z) ≤ hi (yarn frame)
+                let g = lo + (hi - lo) * u2.x;
+                let sb = (2.0 * u2.y - 1.0).clamp(-1.0, 1.0);
+                let cb = (1.0 - sb * sb).max(0.0).sqrt();
+                let (sg, cg) = g.sin_cos();
+                let h = spot.from_yarn(Vec3::new(sb, cb * sg, cb * cg));
+                if wi.dot(h) <= 0.0 {
+                    return None;
+                }
+                crate::frame::reflect(wi, h)
+            }
+            _ => warp::square_to_cosine_hemisphere(u2),
+        };
         if wo.z <= 0.0 {
             return None;
         }
-        let pdf = warp::square_to_cosine_hemisphere_pdf(wo);
-        // f·cosθo/pdf = f·π
-        let weight = self.eval(ctx, sp, wi, wo) * PI;
+        let pdf = self.mixture_pdf(&spot, window, wi, wo);
+        if !(pdf > 0.0) {
+            return None;
+        }
+        let s = self.weave.specular_at(&spot, wi, wo);
+        let f = spot.yarn.kd * FRAC_1_PI + spot.yarn.ks * (s * self.specular_normalization);
         Some(BsdfSample {
             wo,
-            weight,
+            weight: f * (wo.z / pdf),
             pdf,
             lobe: LobeFlags::GLOSSY_REFLECTION,
             eta: 1.0,

@@ -567,6 +567,7 @@ mod tests {
                 samples: 2000,
                 seed: 1,
                 mode: Mode::Importance,
+                uv: vec![0.0, 0.0],
                 out: OutputArgs {
                     output: dir.join(file),
                     size: Some((640, 480)),

@@ -542,6 +542,31 @@ mod tests {
     use crate::plot::tests::{assert_png_has_content, scratch};
     use specula_bsdf::parse_spec;
 
+    /// `--uv` picks where a spatially varying material is evaluated: the woven cloth's
+    /// lobe on a warp yarn's crest differs from the one at the pattern's corner.
+    #[test]
+    fn lobe_at_texture_coordinates() {
+        let b = parse_spec(
+            "irawan pattern=polyester repeatU=10 repeatV=10 warp_kd=0.1 warp_ks=0.5 \
+             weft_kd=0.1 weft_ks=0.5",
+        )
+        .unwrap();
+        let ctx = BsdfContext::IMPORTANCE;
+        let at = |u: f32, v: f32| {
+            let sp = uv_point(&[u, v]).unwrap();
+            lobe_at(&b, &ctx, &sp, 60.0, Quantity::F, Channel::R, false)
+        };
+        let (crest, corner) = (at(0.025, 0.025), at(0.0, 0.0));
+        let peak = |l: &Lobe| l.points.iter().map(|p| p.1).fold(0.0, f64::max);
+        assert!(
+            peak(&crest) > 2.0 * peak(&corner),
+            "{} vs {}",
+            peak(&crest),
+            peak(&corner)
+        );
+        assert!(uv_point(&[0.1]).is_err() && uv_point(&[f32::NAN, 0.0]).is_err());
+    }
+
     #[test]
     fn directions_in_the_plane() {
         for a in [-170.0, -90.0, -30.0, 0.0, 45.0, 135.0] {
@@ -646,6 +671,7 @@ mod tests {
             log: false,
             decades: 4,
             mode: Mode::Importance,
+            uv: vec![0.0, 0.0],
             out: OutputArgs {
                 output: out,
                 size: None,

@@ -60,8 +60,8 @@
 //!
 //! **Deviations from Mitsuba 0.6:** the normalisation constant is estimated with 2^17
 //! (not 10⁴) fixed-seed samples, so it differs from Mitsuba's by Mitsuba's own Monte Carlo
-//! error (about 1 %); the correlated noise that varies `umax` per yarn segment (`period`
-//! > 0) is a 1-D gradient noise of Specula's with the statistics of Perlin's 1-D slice, not
+//! error (about 1 %); the correlated noise that varies `umax` per yarn segment (when
+//! `period` is positive) is a 1-D gradient noise of Specula's with the statistics of Perlin's 1-D slice, not
 //! Mitsuba's Perlin table, so the same yarn gets a different (equally distributed) tilt;
 //! tile indices use floor where Mitsuba truncates towards zero (identical for uv ≥ 0).
 
@@ -244,10 +244,14 @@ fn tokenize(src: &str, file: &str) -> Result<Vec<(Tok, usize, usize)>, BuildErro
             while let Some(&ch) = cs.get(i) {
                 let exp_sign =
                     (ch == '-' || ch == '+') && matches!(s.chars().last(), Some('e' | 'E'));
-                if ch.is_ascii_digit() || ch == '.' || ch == 'e' || ch == 'E' || exp_sign {
-                    s.push(ch);
-                    advance(&mut i, &mut line, &mut col, ch);
-                } else if s.is_empty() && (ch == '-' || ch == '+') {
+                let lead_sign = s.is_empty() && (ch == '-' || ch == '+');
+                if ch.is_ascii_digit()
+                    || ch == '.'
+                    || ch == 'e'
+                    || ch == 'E'
+                    || exp_sign
+                    || lead_sign
+                {
                     s.push(ch);
                     advance(&mut i, &mut line, &mut col, ch);
                 } else {
@@ -301,6 +305,9 @@ impl WeaveParams for Vec<(&str, Spectrum)> {
         Ok(self.iter().find(|(n, _)| *n == name).map(|(_, v)| *v))
     }
 }
+
+/// Pattern entries with their locations.
+type PatternCells = Vec<(u32, Option<String>)>;
 
 struct Parser<'a> {
     toks: Vec<(Tok, usize, usize)>,
@@ -436,7 +443,8 @@ impl Parser<'_> {
         Ok(y)
     }
 
-    fn weave(&mut self) -> Result<(WeavePattern, Vec<(u32, Option<String>)>), BuildError> {
+    /// The weave and its pattern cells, each with where it was written.
+    fn weave(&mut self) -> Result<(WeavePattern, PatternCells), BuildError> {
         match self.next() {
             Some(Tok::Ident(s)) if s == "weave" => {}
             _ => {
@@ -464,7 +472,7 @@ impl Parser<'_> {
             pattern: Vec::new(),
             yarns: Vec::new(),
         };
-        let mut cells: Vec<(u32, Option<String>)> = Vec::new();
+        let mut cells: PatternCells = Vec::new();
         loop {
             let key_loc = self.loc();
             let key = self.ident()?;
@@ -698,7 +706,7 @@ fn von_mises(cos_x: f32, b: f32) -> f32 {
     } else {
         let t = 3.75 / ab;
         ab.exp() / ab.sqrt()
-            * (0.398_942_28
+            * (0.398_942_3
                 + t * (0.013_285_92
                     + t * (0.002_253_19
                         + t * (-0.001_575_65
@@ -815,7 +823,7 @@ impl WeavePattern {
         let (su, cu) = u.sin_cos();
         let d = (h.y * cu - h.z * su)
             / ((h.x * h.x + (h.y * su + h.z * cu).powi(2)).sqrt() * psi.tan());
-        if !(d.abs() < 1.0) {
+        if d.is_nan() || d.abs() >= 1.0 {
             return 0.0;
         }
         let v_of_u = (-h.y * su - h.z * cu).atan2(h.x) + d.acos();
@@ -985,7 +993,7 @@ impl Spot<'_> {
     }
     /// From the yarn's frame to the shading frame.
     #[inline]
-    fn from_yarn(&self, w: Vec3) -> Vec3 {
+    fn yarn_to_shading(&self, w: Vec3) -> Vec3 {
         if self.yarn.warp {
             w
         } else {
@@ -1162,7 +1170,7 @@ impl BsdfModel for Irawan {
                 let sb = (2.0 * u2.y - 1.0).clamp(-1.0, 1.0);
                 let cb = (1.0 - sb * sb).max(0.0).sqrt();
                 let (sg, cg) = g.sin_cos();
-                let h = spot.from_yarn(Vec3::new(sb, cb * sg, cb * cg));
+                let h = spot.yarn_to_shading(Vec3::new(sb, cb * sg, cb * cg));
                 if wi.dot(h) <= 0.0 {
                     return None;
                 }
@@ -1174,7 +1182,7 @@ impl BsdfModel for Irawan {
             return None;
         }
         let pdf = self.mixture_pdf(&spot, window, wi, wo);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         let s = self.weave.specular_at(&spot, wi, wo);

@@ -163,7 +163,7 @@ impl BsdfModel for Velvet {
             return None;
         }
         let pdf = self.mixture_pdf(sigma, wi, wo);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         let weight = self.eval(ctx, sp, wi, wo) * (wo.z / pdf);
@@ -186,7 +186,7 @@ impl Velvet {
             amplitude: p.float("amplitude", 4.0)?,
         };
         if let FloatParam::Const(s) = v.sigma {
-            if !(s > 0.0) {
+            if s.is_nan() || s <= 0.0 {
                 return Err(crate::props::BuildError::new(
                     p.loc.clone(),
                     format!("'velvet': 'sigma' must be positive, got {s}"),

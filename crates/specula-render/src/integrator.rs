@@ -13,13 +13,22 @@
 //! - `depth`: the distance along the camera ray to the first hit (0 where nothing is hit), in
 //!   all three channels; `hide_emitters` is accepted and has no effect.
 //! - `aov` ([`AovSettings`]): arbitrary output variables of the first hit, listed in `aovs`
-//!   ("name:type, …"; types: `depth`, `position`, `uv`, `geo_normal`, `sh_normal`,
-//!   `prim_index`, `shape_index`) written as extra channels named as Mitsuba names them
-//!   (`name.T`; `name.X/Y/Z`; `name.U/V`; `name.I`), and nested integrators, each written as
+//!   ("name:type, …"; every type of Mitsuba 3.9: `albedo`, `depth`, `position`, `uv`,
+//!   `geo_normal`, `sh_normal`, `dp_du`, `dp_dv`, `duv_dx`, `duv_dy`, `prim_index`,
+//!   `shape_index`) written as extra channels named as Mitsuba names them (`name.R/G/B` for
+//!   `albedo`; `name.T`; `name.X/Y/Z` for positions, normals and ∂p/∂u, ∂p/∂v; `name.U/V` for
+//!   uv and its screen-space partials; `name.I`), and nested integrators, each written as
 //!   `name.R/G/B/A`; the image (R, G, B) is the first nested integrator's (black without one).
-//!   Misses give 0; `shape_index` counts shapes from 1 in the order the scene declares them
-//!   (as Mitsuba's scalar variants print it). Not supported (an error names them): `albedo`,
-//!   `dp_du`, `dp_dv`, `duv_dx`, `duv_dy`.
+//!   Misses give 0 (Mitsuba's `duv_dx`/`duv_dy` are NaN there: a deviation). `shape_index`
+//!   counts shapes from 1 in the order the scene declares them, as Mitsuba's scalar variants
+//!   number spheres, disks and cylinders; Mitsuba numbers meshes, rectangles and cubes after
+//!   those, in an order of its own, which Specula does not reproduce. `albedo` is the material's
+//!   [`specula_bsdf::Bsdf::diffuse_reflectance`] (Mitsuba's `eval_diffuse_reflectance`);
+//!   `dp_du`/`dp_dv` are the unnormalised world-space derivatives of the shape's uv
+//!   parameterisation (Mitsuba's `si.dp_du`/`si.dp_dv`); `duv_dx`/`duv_dy` are Mitsuba's
+//!   `si.compute_uv_partials` of the camera ray's differentials (the rays through the film
+//!   position one pixel to the right and one pixel down, scaled by 1/√spp as Mitsuba's
+//!   `scale_differential`; see [`RayDifferentials`]), 0 when the render supplies none.
 //!
 //! Every integrator draws its random numbers from a [`Sampler`] in an order that depends only
 //! on the path's structure (the same dimensions at the same bounce, whatever the material), so
@@ -238,6 +247,22 @@ impl Scene {
         counters: &mut Counters,
         aovs: &mut [f32],
     ) -> Rgb {
+        self.sample_differential(integrator, ray, None, hit, rng, counters, aovs)
+    }
+
+    /// [`Scene::sample`] with the camera ray's differentials (what the `duv_dx`/`duv_dy` AOVs
+    /// read; see [`Integrator::needs_differentials`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn sample_differential<S: Sampler>(
+        &self,
+        integrator: &Integrator,
+        ray: Ray,
+        differentials: Option<&RayDifferentials>,
+        hit: Option<Hit>,
+        rng: &mut S,
+        counters: &mut Counters,
+        aovs: &mut [f32],
+    ) -> Rgb {
         match integrator {
             Integrator::Path(p) => self.li_path(p, ray, hit, rng, counters),
             Integrator::Volpath(p) => self.li_volpath(p, ray, hit, rng, counters),
@@ -246,7 +271,7 @@ impl Scene {
                 counters.rays += 1;
                 Rgb::splat(hit.map_or(0.0, |h| h.t))
             }
-            Integrator::Aov(a) => self.li_aov(a, ray, hit, rng, counters, aovs),
+            Integrator::Aov(a) => self.li_aov(a, ray, differentials, hit, rng, counters, aovs),
         }
     }
 
@@ -425,26 +450,82 @@ pub struct DirectSettings {
     pub hide_emitters: bool,
 }
 
-/// What an AOV records (Mitsuba's AOV types that Specula supports).
+/// What an AOV records (Mitsuba 3's AOV types).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AovType {
+    Albedo,
     Depth,
     Position,
     Uv,
     GeoNormal,
     ShNormal,
+    DpDu,
+    DpDv,
+    DuvDx,
+    DuvDy,
     PrimIndex,
     ShapeIndex,
+}
+
+/// The camera ray's differentials (Mitsuba's `RayDifferential3f` after `scale_differential`):
+/// the rays for a step of one pixel in x and in y, already scaled by the sampler's
+/// 1/√(samples per pixel). Only their lines matter (`duv_dx`/`duv_dy` intersect them with the
+/// tangent plane at the hit).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayDifferentials {
+    pub o_x: Vec3,
+    pub d_x: Vec3,
+    pub o_y: Vec3,
+    pub d_y: Vec3,
+}
+
+impl RayDifferentials {
+    /// Mitsuba's `RayDifferential3f::scale_differential`: moves the differential rays towards
+    /// the primary ray `(o, d)` by `amount` (origins and directions alike).
+    pub fn scaled(self, o: Vec3, d: Vec3, amount: f32) -> Self {
+        RayDifferentials {
+            o_x: o + (self.o_x - o) * amount,
+            d_x: d + (self.d_x - d) * amount,
+            o_y: o + (self.o_y - o) * amount,
+            d_y: d + (self.d_y - d) * amount,
+        }
+    }
+
+    /// Mitsuba's `SurfaceInteraction3f::compute_uv_partials`: where the differential rays meet
+    /// the tangent plane at `si`, expressed in the uv parameterisation by least squares
+    /// (∂uv/∂x, ∂uv/∂y); zero when `dp_du`/`dp_dv` are degenerate.
+    pub fn uv_partials(&self, si: &SurfaceGeometry) -> (Vec2, Vec2) {
+        let n = si.n_geo;
+        let plane = n.dot(si.p);
+        let t_x = (plane - n.dot(self.o_x)) / n.dot(self.d_x);
+        let t_y = (plane - n.dot(self.o_y)) / n.dot(self.d_y);
+        let dp_dx = self.o_x + self.d_x * t_x - si.p;
+        let dp_dy = self.o_y + self.d_y * t_y - si.p;
+        let (du, dv) = (si.dp_du, si.dp_dv);
+        let (a00, a01, a11) = (du.dot(du), du.dot(dv), dv.dot(dv));
+        let inv_det = 1.0 / (a00 * a11 - a01 * a01);
+        let inv_det = if inv_det.is_finite() { inv_det } else { 0.0 };
+        let solve = |dp: Vec3| {
+            let (b0, b1) = (du.dot(dp), dv.dot(dp));
+            Vec2::new(a11 * b0 - a01 * b1, a00 * b1 - a01 * b0) * inv_det
+        };
+        (solve(dp_dx), solve(dp_dy))
+    }
 }
 
 impl AovType {
     fn parse(s: &str) -> Option<Self> {
         Some(match s {
+            "albedo" => AovType::Albedo,
             "depth" => AovType::Depth,
             "position" => AovType::Position,
             "uv" => AovType::Uv,
             "geo_normal" => AovType::GeoNormal,
             "sh_normal" => AovType::ShNormal,
+            "dp_du" => AovType::DpDu,
+            "dp_dv" => AovType::DpDv,
+            "duv_dx" => AovType::DuvDx,
+            "duv_dy" => AovType::DuvDy,
             "prim_index" => AovType::PrimIndex,
             "shape_index" => AovType::ShapeIndex,
             _ => return None,
@@ -453,9 +534,14 @@ impl AovType {
     /// Channel suffixes, as Mitsuba names them.
     fn suffixes(self) -> &'static [&'static str] {
         match self {
+            AovType::Albedo => &["R", "G", "B"],
             AovType::Depth => &["T"],
-            AovType::Position | AovType::GeoNormal | AovType::ShNormal => &["X", "Y", "Z"],
-            AovType::Uv => &["U", "V"],
+            AovType::Position
+            | AovType::GeoNormal
+            | AovType::ShNormal
+            | AovType::DpDu
+            | AovType::DpDv => &["X", "Y", "Z"],
+            AovType::Uv | AovType::DuvDx | AovType::DuvDy => &["U", "V"],
             AovType::PrimIndex | AovType::ShapeIndex => &["I"],
         }
     }
@@ -489,6 +575,13 @@ impl Integrator {
             }
         }
         out
+    }
+
+    /// Whether samples need the camera ray's differentials (an `aov` integrator with a
+    /// `duv_dx` or `duv_dy` output).
+    pub fn needs_differentials(&self) -> bool {
+        matches!(self, Integrator::Aov(a)
+            if a.aovs.iter().any(|(_, t)| matches!(t, AovType::DuvDx | AovType::DuvDy)))
     }
 
     /// Builds an `<integrator>` node (and its nested integrators).
@@ -564,15 +657,12 @@ impl Integrator {
                     };
                     let (name, ty) = (name.trim(), ty.trim());
                     let t = AovType::parse(ty).ok_or_else(|| {
-                        let known =
-                            "depth, position, uv, geo_normal, sh_normal, prim_index, shape_index";
-                        let msg = if ["albedo", "dp_du", "dp_dv", "duv_dx", "duv_dy"].contains(&ty)
-                        {
-                            format!("AOV type '{ty}' is not supported yet (supported: {known})")
-                        } else {
-                            format!("invalid AOV type '{ty}' (supported: {known})")
-                        };
-                        SceneError::new(Some(n.loc.clone()), msg)
+                        let known = "albedo, depth, position, uv, geo_normal, sh_normal, \
+                                     dp_du, dp_dv, duv_dx, duv_dy, prim_index, shape_index";
+                        SceneError::new(
+                            Some(n.loc.clone()),
+                            format!("invalid AOV type '{ty}' (supported: {known})"),
+                        )
                     })?;
                     if name.is_empty() {
                         return Err(SceneError::new(
@@ -781,10 +871,12 @@ impl Scene {
     }
 
     /// Mitsuba's `aov` integrator.
+    #[allow(clippy::too_many_arguments)]
     fn li_aov<S: Sampler>(
         &self,
         a: &AovSettings,
         ray: Ray,
+        differentials: Option<&RayDifferentials>,
         hit: Option<Hit>,
         rng: &mut S,
         counters: &mut Counters,
@@ -813,9 +905,32 @@ impl Scene {
             counters.rays += 1;
         }
         let si = hit.map(|h| (h, self.geometry[h.shape as usize].surface(&ray, &h)));
+        // ∂uv/∂x and ∂uv/∂y, computed once for both AOVs
+        let mut uv_partials = None;
+        let mut partials = |s: &SurfaceGeometry| {
+            *uv_partials.get_or_insert_with(|| {
+                differentials.map_or((Vec2::ZERO, Vec2::ZERO), |d| d.uv_partials(s))
+            })
+        };
         for (_, t) in &a.aovs {
             let v: [f32; 3] = match (&si, t) {
                 (None, _) => [0.0; 3],
+                (Some((h, s)), AovType::Albedo) => {
+                    let shape = h.shape as usize;
+                    let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
+                    let sp = s.shading_point(h, self.geometry[shape].surface_data());
+                    bsdf.diffuse_reflectance(&sp, s.sh_frame.to_local(-ray.d)).0
+                }
+                (Some((_, s)), AovType::DpDu) => s.dp_du.to_array(),
+                (Some((_, s)), AovType::DpDv) => s.dp_dv.to_array(),
+                (Some((_, s)), AovType::DuvDx) => {
+                    let d = partials(s).0;
+                    [d.x, d.y, 0.0]
+                }
+                (Some((_, s)), AovType::DuvDy) => {
+                    let d = partials(s).1;
+                    [d.x, d.y, 0.0]
+                }
                 (Some((h, _)), AovType::Depth) => [h.t, 0.0, 0.0],
                 (Some((_, s)), AovType::Position) => s.p.to_array(),
                 (Some((_, s)), AovType::Uv) => [s.uv.x, s.uv.y, 0.0],
@@ -888,6 +1003,14 @@ mod tests {
                 "depth.y.T"
             ]
         );
+        // every AOV type of Mitsuba 3.9, with Mitsuba's channel suffixes
+        let s = scene(r#"<integrator type="aov"><string name="aovs" value="a:albedo,b:dp_du,c:dp_dv,d:duv_dx,e:duv_dy"/></integrator>"#, "").unwrap();
+        assert_eq!(
+            s.integrator.aov_channels().join(" "),
+            "a.R a.G a.B b.X b.Y b.Z c.X c.Y c.Z d.U d.V e.U e.V"
+        );
+        assert!(s.integrator.needs_differentials());
+        assert!(!Integrator::default().needs_differentials());
         for (bad, msg) in [
             (
                 r#"<integrator type="direct"><integer name="emitter_samples" value="-1"/></integrator>"#,
@@ -910,8 +1033,8 @@ mod tests {
                 "invalid AOV type 'nonsense'",
             ),
             (
-                r#"<integrator type="aov"><string name="aovs" value="a:dp_du"/></integrator>"#,
-                "not supported yet",
+                r#"<integrator type="aov"><string name="aovs" value="a:boundary_test"/></integrator>"#,
+                "invalid AOV type 'boundary_test'",
             ),
             (
                 r#"<integrator type="aov"><string name="aovs" value="depth"/></integrator>"#,
@@ -926,6 +1049,41 @@ mod tests {
             let e = scene(bad, "").err().unwrap().to_string();
             assert!(e.contains(msg) && e.contains("<test>:2:"), "{e}");
         }
+    }
+
+    #[test]
+    fn uv_partials_solve_the_tangent_plane() {
+        // the plane z = 0 with ∂p/∂u = (2, 0, 0), ∂p/∂v = (0.5, 3, 0), seen from above by a
+        // ray along −z; the differential rays start 0.1 over in x and y (orthographic)
+        let mut si = SurfaceGeometry {
+            p: Vec3::new(0.2, 0.1, 0.0),
+            n_geo: Vec3::Z,
+            sh_frame: specula_bsdf::frame::Frame::from_normal(Vec3::Z),
+            uv: Vec2::ZERO,
+            dp_du: Vec3::new(2.0, 0.0, 0.0),
+            dp_dv: Vec3::new(0.5, 3.0, 0.0),
+        };
+        let (o, d) = (Vec3::new(0.2, 0.1, 5.0), -Vec3::Z);
+        let diff = RayDifferentials {
+            o_x: o + Vec3::X * 0.1,
+            d_x: d,
+            o_y: o + Vec3::Y * 0.1,
+            d_y: d,
+        };
+        // Δp = u·(2, 0, 0) + v·(0.5, 3, 0): Δp = (0.1, 0, 0) ⇒ (0.05, 0); (0, 0.1, 0) ⇒
+        // v = 1/30, u = −0.5·v/2
+        let (dx, dy) = diff.uv_partials(&si);
+        assert!((dx - Vec2::new(0.05, 0.0)).length() < 1e-6, "{dx}");
+        assert!(
+            (dy - Vec2::new(-0.25 / 30.0, 1.0 / 30.0)).length() < 1e-6,
+            "{dy}"
+        );
+        // halving the differentials halves the partials (Mitsuba's 1/√spp with 4 spp)
+        let (hx, hy) = diff.scaled(o, d, 0.5).uv_partials(&si);
+        assert!((hx - dx * 0.5).length() < 1e-6 && (hy - dy * 0.5).length() < 1e-6);
+        // a degenerate parameterisation gives 0, not NaN
+        si.dp_du = Vec3::ZERO;
+        assert_eq!(diff.uv_partials(&si), (Vec2::ZERO, Vec2::ZERO));
     }
 
     #[test]

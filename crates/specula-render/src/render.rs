@@ -3,12 +3,15 @@
 //! merged in a fixed order — the image depends only on the seed, never on the number of
 //! threads. The camera takes sample dimensions 0 (the film position) and 1 (a thin lens's aperture
 //! sample), the integrator dimensions 2 onwards.
-//! Integrators with AOVs fill extra channels, filtered like the image.
+//! Integrators with AOVs fill extra channels, filtered like the image; when an AOV needs the
+//! camera ray's differentials (`duv_dx`, `duv_dy`), they are computed as Mitsuba's sensors
+//! compute them (see `ray_differentials`), and only then.
 
 use crate::accel::Intersector;
+use crate::camera::Camera;
 use crate::core::{Hit, Ray};
 use crate::film::ImageBlock;
-use crate::integrator::Counters;
+use crate::integrator::{Counters, RayDifferentials};
 use crate::sampler::{
     Independent, LowDiscrepancy, MultiJitter, Orthogonal, PixelSampler, SamplerKind, Sobol,
     Stratified,
@@ -83,6 +86,13 @@ fn render_tile<S: PixelSampler>(
         t_max: 0.0,
     }; PACKET];
     let mut hits: [Option<Hit>; PACKET] = [None; PACKET];
+    let differentials = integrator.needs_differentials();
+    let mut diffs = [RayDifferentials {
+        o_x: Vec3::ZERO,
+        d_x: Vec3::Z,
+        o_y: Vec3::ZERO,
+        d_y: Vec3::Z,
+    }; PACKET];
     for y in y0..y0 + h {
         for x in x0..x0 + w {
             let index = (y * film.width + x) as u64;
@@ -96,16 +106,24 @@ fn render_tile<S: PixelSampler>(
                     sampler.start_sample(done + i as u32, 0);
                     pos[i] = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                     // a thin lens draws its aperture sample next; a pinhole draws none
-                    rays[i] = scene.camera.sample_ray(pos[i] * inv, || sampler.next_2d());
+                    let mut aperture = Vec2::splat(0.5);
+                    rays[i] = scene.camera.sample_ray(pos[i] * inv, || {
+                        aperture = sampler.next_2d();
+                        aperture
+                    });
+                    if differentials {
+                        diffs[i] = ray_differentials(scene, rays[i], pos[i], inv, aperture, spp);
+                    }
                 }
                 scene.accel.intersect_packet(&rays[..n], &mut hits[..n]);
                 for i in 0..n {
                     // dimension 0: film position, 1: aperture (thin lens); the integrator
                     // starts at 2 whatever the camera, so that the two never share one
                     sampler.start_sample(done + i as u32, 2);
-                    let l = scene.sample(
+                    let l = scene.sample_differential(
                         integrator,
                         rays[i],
+                        differentials.then_some(&diffs[i]),
                         hits[i].take(),
                         sampler,
                         &mut c,
@@ -132,6 +150,33 @@ fn render_tile<S: PixelSampler>(
         },
         c,
     )
+}
+
+/// The differentials of the camera ray `ray` through film position `pos` (pixels; `inv` =
+/// 1 / film size) with aperture sample `aperture`, as Mitsuba's sensors'
+/// `sample_ray_differential` make them, scaled by 1/√spp as Mitsuba's sampling integrators
+/// do (checked against Mitsuba 3.9.1's `sample_ray_differential`): the differential rays are
+/// the rays through the film position one pixel over (through the same aperture point), except
+/// that the pinhole camera keeps the primary ray's origin for them (Mitsuba's `perspective`
+/// sets `o_x = o_y = o`; its `thinlens` and `orthographic` start each differential ray at its
+/// own origin).
+fn ray_differentials(
+    scene: &Scene,
+    ray: Ray,
+    pos: Vec2,
+    inv: Vec2,
+    aperture: Vec2,
+    spp: u32,
+) -> RayDifferentials {
+    let step = |d: Vec2| {
+        let r = scene.camera.sample_ray((pos + d) * inv, || aperture);
+        match scene.camera {
+            Camera::Perspective(_) => (ray.o, r.d),
+            Camera::ThinLens(_) | Camera::Orthographic(_) => (r.o, r.d),
+        }
+    };
+    let ((o_x, d_x), (o_y, d_y)) = (step(Vec2::X), step(Vec2::Y));
+    RayDifferentials { o_x, d_x, o_y, d_y }.scaled(ray.o, ray.d, 1.0 / (spp as f32).sqrt())
 }
 
 /// Render with progress reports (`progress(tiles_done, tiles_total)`) and a stop flag that

@@ -1,6 +1,7 @@
 //! The material models, one file each, and the [`Bsdf`] enum that dispatches to them without
 //! virtual calls or allocation.
 
+mod albedo;
 pub mod blend;
 pub mod bumpmap;
 pub mod conductor;

@@ -3,7 +3,8 @@
 //! Run with `cargo bench -p specula-bsdf` (add a filter such as `-- eval/` or
 //! `-- roughconductor` to run a subset). Each benchmark cycles through 1024 pre-generated
 //! queries (wi, wo, u1, u2), so the random number generator is not measured; group names are
-//! `eval/<model>` and `sample/<model>`; `merl` and `merl_interpolated` are a MERL table
+//! `eval/<model>` and `sample/<model>`, each query at its own random texture coordinates
+//! (which only `irawan` reads); `merl` and `merl_interpolated` are a MERL table
 //! (a rough copper tabulated in memory) with nearest-bin and multilinear lookups.
 
 use std::time::Duration;
@@ -97,6 +98,17 @@ const MODELS: &[(&str, &str, Domain)] = &[
         "sheen reflectance=0.8 roughness=0.5",
         Domain::Reflection,
     ),
+    ("velvet", "velvet reflectance=0.8 sigma=0.3", Domain::Reflection),
+    (
+        "irawan_polyester",
+        "irawan pattern=polyester repeatU=10 repeatV=10 warp_kd=0.1 warp_ks=0.5 weft_kd=0.1 weft_ks=0.5",
+        Domain::Reflection,
+    ),
+    (
+        "irawan_denim",
+        "irawan pattern=denim repeatU=10 repeatV=10 warp_kd=0.1 warp_ks=0.5 weft_kd=0.1 weft_ks=0.5",
+        Domain::Reflection,
+    ),
     (
         "principled",
         "principled base_color=0.8,0.3,0.2 roughness=0.4 metallic=0.2 spec_tint=0.3 \
@@ -131,6 +143,8 @@ struct Query {
     wo: Vec3,
     u1: f32,
     u2: Vec2,
+    /// Texture coordinates (read by spatially varying models such as `irawan`).
+    uv: Vec2,
 }
 
 fn queries(domain: Domain) -> Vec<Query> {
@@ -155,6 +169,7 @@ fn queries(domain: Domain) -> Vec<Query> {
                 wo,
                 u1: rng.next_f32(),
                 u2: rng.next_vec2(),
+                uv: rng.next_vec2(),
             }
         })
         .collect()
@@ -181,7 +196,6 @@ fn bench_models(c: &mut Criterion) {
         queries(Domain::Reflection),
     ));
     let ctx = BsdfContext::RADIANCE;
-    let sp = ShadingPoint::default();
 
     let mut eval = c.benchmark_group("eval");
     for (name, bsdf, qs) in &models {
@@ -190,6 +204,7 @@ fn bench_models(c: &mut Criterion) {
             b.iter(|| {
                 let q = &qs[i & (N - 1)];
                 i = i.wrapping_add(1);
+                let sp = ShadingPoint::at_uv(q.uv.x, q.uv.y);
                 bsdf.eval(&ctx, &sp, black_box(q.wi), black_box(q.wo))
             })
         });
@@ -203,6 +218,7 @@ fn bench_models(c: &mut Criterion) {
             b.iter(|| {
                 let q = &qs[i & (N - 1)];
                 i = i.wrapping_add(1);
+                let sp = ShadingPoint::at_uv(q.uv.x, q.uv.y);
                 bsdf.sample(&ctx, &sp, black_box(q.wi), black_box(q.u1), black_box(q.u2))
             })
         });

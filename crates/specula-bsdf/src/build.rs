@@ -119,6 +119,13 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
     ),
     ("mask", &["opacity"]),
     ("null", &[]),
+    (
+        "irawan",
+        &[
+            "filename", "pattern", "repeatU", "repeatV", "warp_kd", "warp_ks", "weft_kd", "weft_ks",
+        ],
+    ),
+    ("velvet", &["reflectance", "sigma", "amplitude"]),
 ];
 
 /// Parameters a plugin accepts, or `None` for an unknown plugin.
@@ -590,6 +597,8 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
             nested: one_nested(&p)?,
         })),
         "null" => Bsdf::Null(Null),
+        "irawan" => Bsdf::Irawan(Box::new(Irawan::build(&p)?)),
+        "velvet" => Bsdf::Velvet(Velvet::build(&p)?),
         _ => unreachable!("plugin table and match agree"),
     };
     p.finish(valid)?;

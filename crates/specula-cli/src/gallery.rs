@@ -65,6 +65,22 @@ pub const PRESETS: &[(&str, &str)] = &[
         "blendbsdf weight=0.5 { diffuse reflectance=0.35,0.04,0.12 } { sheen reflectance=1,0.55,0.7 roughness=0.4 }",
     ),
     (
+        "nylon (irawan)",
+        "irawan pattern=polyester repeatU=60 repeatV=30 warp_kd=0.03,0.08,0.3 warp_ks=0.5 weft_kd=0.03,0.08,0.3 weft_ks=0.5",
+    ),
+    (
+        "denim (irawan)",
+        "irawan pattern=denim repeatU=60 repeatV=30 warp_kd=0.03,0.07,0.25 warp_ks=0.15 weft_kd=0.6,0.6,0.55 weft_ks=0.15",
+    ),
+    (
+        "silk charmeuse (irawan)",
+        "irawan pattern=charmeuse repeatU=60 repeatV=30 warp_kd=0.25,0.02,0.05 warp_ks=0.6 weft_kd=0.25,0.02,0.05 weft_ks=0.3",
+    ),
+    (
+        "velvet",
+        "blendbsdf weight=0.6 { diffuse reflectance=0.2,0.01,0.04 } { velvet reflectance=0.9,0.25,0.4 sigma=0.3 }",
+    ),
+    (
         "twosided Cr α=0.08",
         "twosided { roughconductor material=Cr alpha=0.08 distribution=ggx }",
     ),

@@ -7,6 +7,7 @@ pub mod bumpmap;
 pub mod conductor;
 pub mod dielectric;
 pub mod diffuse;
+pub mod irawan;
 pub mod mask;
 pub mod microsurface_walk;
 pub mod normalmap;
@@ -21,12 +22,14 @@ pub mod roughplastic;
 pub mod sheen;
 pub mod thindielectric;
 pub mod twosided;
+pub mod velvet;
 
 pub use blend::Blend;
 pub use bumpmap::BumpMap;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use irawan::Irawan;
 pub use mask::Mask;
 pub use normalmap::NormalMap;
 pub use null::Null;
@@ -39,6 +42,7 @@ pub use roughplastic::RoughPlastic;
 pub use sheen::Sheen;
 pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
+pub use velvet::Velvet;
 
 use crate::bsdf::*;
 use crate::fresnel::FresnelMode;
@@ -72,6 +76,10 @@ pub enum Bsdf {
     NormalMap(Box<NormalMap>),
     Mask(Box<Mask>),
     Null(Null),
+    /// Irawan & Marschner's woven cloth (Mitsuba 0.6's `irawan`).
+    Irawan(Box<Irawan>),
+    /// Ashikhmin & Premože's distribution-based velvet (a Specula extension).
+    Velvet(Velvet),
 }
 
 macro_rules! dispatch {
@@ -96,6 +104,8 @@ macro_rules! dispatch {
             Bsdf::NormalMap($b) => $e,
             Bsdf::Mask($b) => $e,
             Bsdf::Null($b) => $e,
+            Bsdf::Irawan($b) => $e,
+            Bsdf::Velvet($b) => $e,
         }
     };
 }
@@ -123,6 +133,8 @@ impl Bsdf {
             Bsdf::NormalMap(_) => "normalmap",
             Bsdf::Mask(_) => "mask",
             Bsdf::Null(_) => "null",
+            Bsdf::Irawan(_) => "irawan",
+            Bsdf::Velvet(_) => "velvet",
         }
     }
 }

@@ -46,6 +46,11 @@ pub struct AlbedoArgs {
     /// the power that is scattered) or radiance (refraction then carries the (η_i/η_t)² factor)
     #[arg(long, value_enum, default_value_t = Mode::Importance)]
     pub mode: Mode,
+    /// Texture coordinates to evaluate a spatially varying material at (textured parameters,
+    /// woven cloth), on a flat surface whose ∂p/∂u, ∂p/∂v and normal are the local x, y and z
+    /// axes
+    #[arg(long, value_name = "U,V", value_delimiter = ',', allow_negative_numbers = true, default_values_t = [0.0, 0.0])]
+    pub uv: Vec<f32>,
     #[command(flatten)]
     pub out: OutputArgs,
 }
@@ -80,6 +85,7 @@ pub fn angles(step: f64) -> Vec<f64> {
 /// The albedo at incidence `theta_i` (degrees, ωi at azimuth 0) from `samples` samples of the
 /// material's `sample`. Without transmission this is [`check::albedo`]; with it, the same
 /// estimator (the same random numbers) with the sample weights split by the side of ωo.
+#[cfg(test)]
 pub fn albedo_at(
     bsdf: &Bsdf,
     ctx: &BsdfContext,
@@ -87,7 +93,19 @@ pub fn albedo_at(
     samples: usize,
     seed: u64,
 ) -> AlbedoRow {
-    let sp = ShadingPoint::default();
+    albedo_at_point(bsdf, ctx, &ShadingPoint::default(), theta_i, samples, seed)
+}
+
+/// The albedo at incidence `theta_i` (as `albedo_at`) at shading point `sp`.
+pub fn albedo_at_point(
+    bsdf: &Bsdf,
+    ctx: &BsdfContext,
+    sp: &ShadingPoint,
+    theta_i: f64,
+    samples: usize,
+    seed: u64,
+) -> AlbedoRow {
+    let sp = *sp;
     let wi = super::lobe::wi_at(theta_i);
     if !bsdf.flags().has_transmission() {
         let a = check::albedo(bsdf, ctx, &sp, wi, samples, seed);
@@ -141,9 +159,22 @@ pub fn albedo_at(
 
 /// [`albedo_at`] for every angle, the angles shared among threads (the result does not depend
 /// on how many).
+#[cfg(test)]
 pub fn albedo_curve(
     bsdf: &Bsdf,
     ctx: &BsdfContext,
+    thetas: &[f64],
+    samples: usize,
+    seed: u64,
+) -> Vec<AlbedoRow> {
+    albedo_curve_at(bsdf, ctx, &ShadingPoint::default(), thetas, samples, seed)
+}
+
+/// The albedo for every angle (as `albedo_curve`) at shading point `sp`.
+pub fn albedo_curve_at(
+    bsdf: &Bsdf,
+    ctx: &BsdfContext,
+    sp: &ShadingPoint,
     thetas: &[f64],
     samples: usize,
     seed: u64,
@@ -157,7 +188,7 @@ pub fn albedo_curve(
                 s.spawn(move || {
                     (t..thetas.len())
                         .step_by(threads)
-                        .map(|i| (i, albedo_at(bsdf, ctx, thetas[i], samples, seed)))
+                        .map(|i| (i, albedo_at_point(bsdf, ctx, sp, thetas[i], samples, seed)))
                         .collect::<Vec<_>>()
                 })
             })
@@ -199,7 +230,8 @@ pub fn run(args: &AlbedoArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let transmission = bsdf.flags().has_transmission();
     let ctx = context(args.mode);
     let thetas = angles(args.step);
-    let rows = albedo_curve(bsdf, &ctx, &thetas, args.samples as usize, args.seed);
+    let sp = super::lobe::uv_point(&args.uv)?;
+    let rows = albedo_curve_at(bsdf, &ctx, &sp, &thetas, args.samples as usize, args.seed);
     let grey = is_grey(&rows);
     write_table(&material.label, &rows, transmission, args, out)?;
     let picture = AlbedoPicture {
@@ -535,6 +567,7 @@ mod tests {
                 samples: 2000,
                 seed: 1,
                 mode: Mode::Importance,
+                uv: vec![0.0, 0.0],
                 out: OutputArgs {
                     output: dir.join(file),
                     size: Some((640, 480)),

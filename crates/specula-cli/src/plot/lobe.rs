@@ -60,8 +60,23 @@ pub struct LobeArgs {
     /// refraction)
     #[arg(long, value_enum, default_value_t = Mode::Importance)]
     pub mode: Mode,
+    /// Texture coordinates to evaluate a spatially varying material at (textured parameters,
+    /// woven cloth), on a flat surface whose ∂p/∂u, ∂p/∂v and normal are the local x, y and z
+    /// axes
+    #[arg(long, value_name = "U,V", value_delimiter = ',', allow_negative_numbers = true, default_values_t = [0.0, 0.0])]
+    pub uv: Vec<f32>,
     #[command(flatten)]
     pub out: OutputArgs,
+}
+
+/// The flat shading point at `--uv U,V`.
+pub fn uv_point(uv: &[f32]) -> Result<ShadingPoint<'static>, CliError> {
+    match uv {
+        [u, v] if u.is_finite() && v.is_finite() => Ok(ShadingPoint::at_uv(*u, *v)),
+        _ => Err(CliError::usage(format!(
+            "--uv takes two finite numbers U,V, got {uv:?}"
+        ))),
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -113,6 +128,7 @@ pub struct Lobe {
 
 /// The lobe for incidence `theta_i`: `quantity` of `channel` at every `STEP_DEG` of the plane
 /// of incidence (the upper half, or the whole circle when `transmission`).
+#[cfg(test)]
 pub fn lobe(
     bsdf: &Bsdf,
     ctx: &BsdfContext,
@@ -121,7 +137,27 @@ pub fn lobe(
     channel: Channel,
     transmission: bool,
 ) -> Lobe {
-    let sp = ShadingPoint::default();
+    lobe_at(
+        bsdf,
+        ctx,
+        &ShadingPoint::default(),
+        theta_i,
+        quantity,
+        channel,
+        transmission,
+    )
+}
+
+/// The lobe for incidence `theta_i` (as `lobe`) at shading point `sp`.
+pub fn lobe_at(
+    bsdf: &Bsdf,
+    ctx: &BsdfContext,
+    sp: &ShadingPoint,
+    theta_i: f64,
+    quantity: Quantity,
+    channel: Channel,
+    transmission: bool,
+) -> Lobe {
     let wi = wi_at(theta_i);
     let half = if transmission { 180.0 } else { 90.0 };
     let n = (2.0 * half / STEP_DEG).round() as usize;
@@ -130,8 +166,8 @@ pub fn lobe(
             let alpha = -half + 2.0 * half * k as f64 / n as f64;
             let wo = wo_at(alpha);
             let f = match quantity {
-                Quantity::FCos => bsdf.eval_cos(ctx, &sp, wi, wo),
-                Quantity::F => bsdf.eval(ctx, &sp, wi, wo),
+                Quantity::FCos => bsdf.eval_cos(ctx, sp, wi, wo),
+                Quantity::F => bsdf.eval(ctx, sp, wi, wo),
             };
             (alpha, channel.of(f).max(0.0))
         })
@@ -265,10 +301,21 @@ pub fn run(args: &LobeArgs, out: &mut dyn Write) -> Result<(), CliError> {
     }
     let transmission = flags.has_transmission();
     let ctx = context(args.mode);
+    let sp = uv_point(&args.uv)?;
     let lobes: Vec<Lobe> = args
         .theta_i
         .iter()
-        .map(|&t| lobe(bsdf, &ctx, t, args.quantity, args.channel, transmission))
+        .map(|&t| {
+            lobe_at(
+                bsdf,
+                &ctx,
+                &sp,
+                t,
+                args.quantity,
+                args.channel,
+                transmission,
+            )
+        })
         .collect();
     let vmax = lobes
         .iter()
@@ -495,6 +542,31 @@ mod tests {
     use crate::plot::tests::{assert_png_has_content, scratch};
     use specula_bsdf::parse_spec;
 
+    /// `--uv` picks where a spatially varying material is evaluated: the woven cloth's
+    /// lobe on a warp yarn's crest differs from the one at the pattern's corner.
+    #[test]
+    fn lobe_at_texture_coordinates() {
+        let b = parse_spec(
+            "irawan pattern=polyester repeatU=10 repeatV=10 warp_kd=0.1 warp_ks=0.5 \
+             weft_kd=0.1 weft_ks=0.5",
+        )
+        .unwrap();
+        let ctx = BsdfContext::IMPORTANCE;
+        let at = |u: f32, v: f32| {
+            let sp = uv_point(&[u, v]).unwrap();
+            lobe_at(&b, &ctx, &sp, 60.0, Quantity::F, Channel::R, false)
+        };
+        let (crest, corner) = (at(0.025, 0.025), at(0.0, 0.0));
+        let peak = |l: &Lobe| l.points.iter().map(|p| p.1).fold(0.0, f64::max);
+        assert!(
+            peak(&crest) > 2.0 * peak(&corner),
+            "{} vs {}",
+            peak(&crest),
+            peak(&corner)
+        );
+        assert!(uv_point(&[0.1]).is_err() && uv_point(&[f32::NAN, 0.0]).is_err());
+    }
+
     #[test]
     fn directions_in_the_plane() {
         for a in [-170.0, -90.0, -30.0, 0.0, 45.0, 135.0] {
@@ -599,6 +671,7 @@ mod tests {
             log: false,
             decades: 4,
             mode: Mode::Importance,
+            uv: vec![0.0, 0.0],
             out: OutputArgs {
                 output: out,
                 size: None,

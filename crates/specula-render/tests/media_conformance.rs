@@ -11,6 +11,10 @@
 //! shows, under the box, the outline of the cube face's two triangles. `med_fog_box_lifted`
 //! (`tests/data/media`, made by `scripts/gen_media_fog_lifted_reference.py`) is the same scene
 //! with the cube 1 mm higher, with a Mitsuba reference of its own, and is judged.
+//! `med_hetero_smoke` and `med_hetero_chromatic` (`tests/data/media`, scenes, `.vol` grids and
+//! references made by `scripts/gen_media_hetero_refs.py`) are `heterogeneous` media: a smoke
+//! plume (one-channel grid) lit by an area light, and a chromatic RGB grid with an RGB albedo
+//! grid, rotated by its `to_world`, lit by a spherical area light.
 //! `SPECULA_SCENES=a,b` restricts the run to those scenes.
 
 use specula_render::image_io::read_image;

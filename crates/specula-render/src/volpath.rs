@@ -5,6 +5,14 @@
 //! Parameters (Mitsuba's): `max_depth` (default −1 = unbounded; 1 = only directly visible
 //! emitters, 2 = direct lighting), `rr_depth` (default 5), `hide_emitters` (default false).
 //!
+//! `volpathmis` (Mitsuba's volumetric path tracer with spectral MIS) takes the same parameters
+//! and `use_spectral_mis` (bool, default true), and is rendered by this same integrator, whose
+//! free-flight sampling already weighs the channels by spectral MIS: the image has
+//! `volpathmis`'s expectation (which is `volpath`'s). Deviation: Mitsuba's `volpathmis` also
+//! combines next-event estimation with the null-scattering paths of unidirectional sampling by
+//! MIS (Miller et al. 2019); Specula weighs them as `volpath` does (same expectation, other
+//! noise), and `use_spectral_mis = false` changes nothing.
+//!
 //! Semantics follow Mitsuba 3.9's `volpath`:
 //! - a path's depth grows at every real scattering event — a BSDF that is not `null`, or a
 //!   scattering event in a medium; passing through a `null` surface does not count;
@@ -43,8 +51,14 @@ use crate::xml::Node;
 use glam::Vec3;
 use specula_bsdf::{Bsdf, BsdfContext, BsdfModel, LobeFlags, Rgb, ShadingPoint};
 
-/// Reads a `<integrator type="volpath">` node.
+/// Reads a `<integrator type="volpath">` or `<integrator type="volpathmis">` node.
 pub fn settings_from_node(n: &Node) -> Result<PathSettings> {
+    let mis_params: &[&str] = if n.plugin_type == "volpathmis" {
+        let _ = n.bool("use_spectral_mis", true)?;
+        &["use_spectral_mis"]
+    } else {
+        &[]
+    };
     let s = PathSettings {
         max_depth: n.int("max_depth", -1)? as i32,
         rr_depth: n.int("rr_depth", 5)? as i32,
@@ -62,7 +76,9 @@ pub fn settings_from_node(n: &Node) -> Result<PathSettings> {
             format!("<{}> cannot be nested in an integrator", c.tag),
         ));
     }
-    n.check_unused(&["max_depth", "rr_depth", "hide_emitters"])?;
+    let mut known = vec!["max_depth", "rr_depth", "hide_emitters"];
+    known.extend_from_slice(mis_params);
+    n.check_unused(&known)?;
     Ok(s)
 }
 
@@ -618,6 +634,47 @@ mod tests {
                 (with[c] / without[c] - want).abs() < 0.005,
                 "{with:?} / {without:?} vs {want}"
             );
+        }
+    }
+
+    /// `volpathmis` reads `volpath`'s parameters and `use_spectral_mis`, refuses others, and
+    /// renders with the same estimator: the same image, bit for bit, for the same seed.
+    #[test]
+    fn volpathmis_is_volpath_with_spectral_mis() {
+        let a = scene(FURNACE, "", "0, 0, -4", "volpath").unwrap();
+        let b = scene(FURNACE, "", "0, 0, -4", "volpathmis").unwrap();
+        assert!(b.volpath);
+        let opts = RenderOptions {
+            spp: 4,
+            seed: 1,
+            threads: 1,
+        };
+        let img = |s: &Scene| render(s, &opts, &AtomicBool::new(false), &|_, _| {}).rgb;
+        assert_eq!(img(&a), img(&b));
+        let text = |integrator: &str| {
+            format!(
+                r#"<scene version="3.0.0">{integrator}<emitter type="constant"/><sensor type="perspective"><film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/></film></sensor></scene>"#
+            )
+        };
+        let ok = Scene::from_xml_str(
+            &text(r#"<integrator type="volpathmis"><integer name="max_depth" value="4"/><boolean name="use_spectral_mis" value="false"/></integrator>"#),
+            "<test>",
+            Path::new("."),
+            &[],
+        )
+        .unwrap();
+        assert!(
+            matches!(ok.integrator, crate::integrator::Integrator::Volpath(p) if p.max_depth == 4)
+        );
+        for bad in [
+            r#"<integrator type="volpath"><boolean name="use_spectral_mis" value="true"/></integrator>"#,
+            r#"<integrator type="volpathmis"><integer name="depth" value="4"/></integrator>"#,
+        ] {
+            let e = Scene::from_xml_str(&text(bad), "<test>", Path::new("."), &[])
+                .err()
+                .unwrap()
+                .to_string();
+            assert!(e.contains("<test>:1:"), "{bad}: {e}");
         }
     }
 

@@ -9,7 +9,7 @@
 //! a shape as its `interior` or `exterior` (`<medium name="interior" …>`), referenced from a
 //! shape (`<ref name="exterior" id="fog"/>`), or nested in / referenced from the sensor (the
 //! camera is inside it). Media are rendered by the `volpath` integrator
-//! ([`crate::volpath`]); Specula's `path` refuses a scene with media.
+//! ([`crate::volpath`]) and `volpathmis`; Specula's `path` refuses a scene with media.
 //!
 //! Deviations from Mitsuba: see the plugins' docs for per-parameter notes.
 
@@ -488,13 +488,13 @@ impl SceneMedia {
         Ok((sm, cam))
     }
 
-    /// Media are rendered by `volpath` only: Mitsuba 3's `path` silently ignores them, Specula
+    /// Media are rendered by `volpath` (or `volpathmis`) only: Mitsuba 3's `path` silently ignores them, Specula
     /// refuses the scene instead.
     pub fn check_integrator(&self, root: &Node) -> Result<()> {
         match (&self.first, self.volpath) {
             (Some(at), false) => Err(SceneError::new(
                 Some(root.loc.clone()),
-                format!("the scene has a participating medium (declared at {at}) but its integrator is not 'volpath'; the 'path' integrator cannot render media (Mitsuba 3's would ignore them): use <integrator type=\"volpath\">"),
+                format!("the scene has a participating medium (declared at {at}) but its integrator is not 'volpath' (or 'volpathmis'); the 'path' integrator cannot render media (Mitsuba 3's would ignore them): use <integrator type=\"volpath\">"),
             )),
             _ => Ok(()),
         }

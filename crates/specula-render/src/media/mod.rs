@@ -623,7 +623,8 @@ mod tests {
         // the world box of the rotated, scaled unit cube (Mitsuba 3.9.1 prints
         // [-1.41421, 0, 0] – [1.41421, 2.82843, 2])
         let (lo, hi) = m.bbox;
-        for (a, b) in [(lo, [-1.41421, 0.0, 0.0]), (hi, [1.41421, 2.82843, 2.0])] {
+        let r2 = 2f32.sqrt();
+        for (a, b) in [(lo, [-r2, 0.0, 0.0]), (hi, [r2, 2.0 * r2, 2.0])] {
             assert!(
                 (a - glam::Vec3::from(b)).abs().max_element() < 1e-4,
                 "{lo} {hi}"

@@ -20,6 +20,7 @@ $S fresnel plot --ior 1.5 -o docs/fresnel.png
 $S fresnel plot --material Au -o docs/fresnel_au.png
 $S brdf slice "$SHARED/data/merl/mitsuba_rough_plastic.binary" -o docs/slice.png
 $S brdf albedo "roughconductor material=none alpha=0.8 distribution=ggx" -o docs/albedo.png
+$S phase plot hg --g 0.2,0.6,0.9,-0.4 rayleigh --log -o docs/phase.png
 $S gallery --quiet -o docs/gallery.png "$SHARED/data/merl/mitsuba_rough_copper.binary" \
     "$SHARED/data/rgl/acrylic_felt_green_rgb.bsdf"
 echo "docs/*.png regenerated"

@@ -97,7 +97,7 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
     ),
     ("sheen", &["reflectance", "roughness"]),
     ("twosided", &[]),
-    ("blendbsdf", &["weight"]),
+    ("blendbsdf", &["weight", "dirac_mixing"]),
     ("measured", &["filename"]),
     ("merl", &["filename", "interpolate", "sampling"]),
     (
@@ -468,11 +468,14 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
                     ),
                 ));
             }
+            let mitsuba_dirac_mixing =
+                p.choice("dirac_mixing", "exact", &["exact", "mitsuba"])? == "mitsuba";
             let a = p.children[0].0.clone();
             let b = p.children[1].0.clone();
             Bsdf::Blend(Box::new(Blend {
                 weight,
                 bsdfs: [a, b],
+                mitsuba_dirac_mixing,
             }))
         }
         "measured" => {

@@ -197,6 +197,52 @@ impl MicrofacetDistribution {
     }
 
     /// Sample the distribution of normals visible from `wi`, D_wi(m) = G1(wi,m) max(0, wi·m) D(m) / cosθi.
+    /// Calls `f(j, k, m)` with the visible normal `m` that [`Self::sample`] (with visible
+    /// normals) gives for u = (`xs[j]`, `xs[k]`), for every pair of a tensor grid of sample
+    /// coordinates (quadrature nodes): the same normals, bit for bit, with one slope inversion
+    /// per coordinate instead of one per node (Beckmann's visible slope along the view's
+    /// azimuth depends on u.x only, the other on u.y only). For precomputed tables.
+    pub fn visible_normal_grid(&self, wi: Vec3, xs: &[f32], mut f: impl FnMut(usize, usize, Vec3)) {
+        if self.kind == MicrofacetType::Ggx {
+            for (j, &uj) in xs.iter().enumerate() {
+                for (k, &uk) in xs.iter().enumerate() {
+                    f(j, k, self.sample_visible_normal(wi, Vec2::new(uj, uk)));
+                }
+            }
+            return;
+        }
+        let wi_s = Vec3::new(self.alpha_u * wi.x, self.alpha_v * wi.y, wi.z).normalize();
+        let cos_theta = wi_s.z.clamp(1e-6, 1.0);
+        let cdf = BeckmannSlopeCdf::new(cos_theta);
+        let table = beckmann_guess_table();
+        let slope_x: Vec<f32> = xs
+            .iter()
+            .map(|&u| {
+                let u = u.clamp(1e-6, 1.0 - 1e-6);
+                let guess = table.guess(cos_theta, u);
+                cdf.invert(u, cdf.s_max - (cdf.s_max + 1.0) * (1.0 - guess))
+            })
+            .collect();
+        let slope_y: Vec<f32> = xs
+            .iter()
+            .map(|&u| erfinv_fast(2.0 * u.clamp(1e-6, 1.0 - 1e-6) - 1.0))
+            .collect();
+        let (sin_phi, cos_phi) = crate::frame::sincos_phi(wi_s);
+        for (j, &x) in slope_x.iter().enumerate() {
+            for (k, &y) in slope_y.iter().enumerate() {
+                let sx = cos_phi * x - sin_phi * y;
+                let sy = sin_phi * x + cos_phi * y;
+                let m_s = Vec3::new(-sx, -sy, 1.0).normalize();
+                f(
+                    j,
+                    k,
+                    Vec3::new(self.alpha_u * m_s.x, self.alpha_v * m_s.y, m_s.z.max(0.0))
+                        .normalize(),
+                );
+            }
+        }
+    }
+
     fn sample_visible_normal(&self, wi: Vec3, u: Vec2) -> Vec3 {
         // stretch to the configuration of unit roughness
         let wi_s = Vec3::new(self.alpha_u * wi.x, self.alpha_v * wi.y, wi.z).normalize();

@@ -15,7 +15,9 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
             dp = d;
             let dx = p / d;
             x -= dx;
-            if dx.abs() < 1e-16 {
+            // quadratic convergence: once a step is at rounding level the root is reached (a
+            // tighter test can spin at 1 ulp for all 100 iterations)
+            if dx.abs() <= 4.0 * f64::EPSILON {
                 break;
             }
         }
@@ -28,6 +30,24 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
         weights[i] = w;
     }
     (nodes, weights)
+}
+
+/// [`gauss_legendre`] computed once per `n` and kept for the life of the process (for
+/// precomputed tables that use the same rule many times).
+pub fn gauss_legendre_cached(n: usize) -> &'static (Vec<f64>, Vec<f64>) {
+    use std::sync::{Mutex, OnceLock};
+    type Rules = Vec<(usize, &'static (Vec<f64>, Vec<f64>))>;
+    static RULES: OnceLock<Mutex<Rules>> = OnceLock::new();
+    let mut rules = RULES
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
+    if let Some((_, r)) = rules.iter().find(|(m, _)| *m == n) {
+        return r;
+    }
+    let r: &'static _ = Box::leak(Box::new(gauss_legendre(n)));
+    rules.push((n, r));
+    r
 }
 
 /// P_n(x) and its derivative.

@@ -85,6 +85,7 @@ fn interpolated_merl(b: &Bsdf) -> Option<Bsdf> {
                         a.unwrap_or_else(|| bl.bsdfs[0].clone()),
                         b.unwrap_or_else(|| bl.bsdfs[1].clone()),
                     ],
+                    mitsuba_dirac_mixing: bl.mitsuba_dirac_mixing,
                 }))
             })
         }
@@ -331,6 +332,7 @@ mod tests {
         let blend = Bsdf::Blend(Box::new(Blend {
             weight: 0.5.into(),
             bsdfs: [diffuse.clone(), two],
+            mitsuba_dirac_mixing: false,
         }));
         let b = interpolated_merl(&blend).unwrap();
         assert_eq!(merl_interpolates(&b), [true]);

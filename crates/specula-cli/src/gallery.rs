@@ -7,6 +7,11 @@
 //! The template scene is built once from XML; only the probe's BSDF changes between tiles.
 //! The tiles are laid out in a grid under a title, each labelled with its material.
 //!
+//! The presets with a participating medium ([`MEDIUM_PRESETS`]: absorbing glass, subsurface
+//! scattering) give the probe a homogeneous `interior` medium behind its dielectric boundary;
+//! their tiles are rendered by `volpath` (unbounded depth, Russian roulette) on a scene of
+//! their own, the others by `path` as before.
+//!
 //! Layout (pixels, `s` = tile size): padding `p = max(4, s/24)`, label strip
 //! `l = max(16, s/8)`, title strip `t = max(28, s/5)`; tile `i` lies at
 //! x = p + (i mod c)(s + p), y = t + ⌊i/c⌋(s + l + p); the sheet is p + c(s + p) wide and
@@ -62,6 +67,42 @@ pub const PRESETS: &[(&str, &str)] = &[
     (
         "twosided Cr α=0.08",
         "twosided { roughconductor material=Cr alpha=0.08 distribution=ggx }",
+    ),
+];
+
+/// The built-in presets with a participating medium inside the probe: (label, boundary
+/// BSDF spec, `<medium name="interior">` XML). They follow [`PRESETS`] on the sheet.
+pub const MEDIUM_PRESETS: &[(&str, &str, &str)] = &[
+    (
+        "absorbing glass (amber)",
+        "dielectric int_ior=bk7",
+        // Beer–Lambert: no scattering, transmittance exp(−σt·d) per channel; through the
+        // probe's diameter (2) red keeps 74 %, green 20 %, blue 1.5 %
+        r#"<medium type="homogeneous" name="interior">
+            <rgb name="sigma_t" value="0.15, 0.8, 2.1"/>
+            <rgb name="albedo" value="0, 0, 0"/>
+        </medium>"#,
+    ),
+    (
+        "subsurface jade",
+        "roughdielectric int_ior=1.6 alpha=0.3 distribution=ggx",
+        // dense (mean free path 0.08–0.17), forward-scattering, green-tinted; the rough
+        // boundary spreads the sun's glints (light leaves a dielectric-bounded medium only by
+        // chance towards the small sun, so a smooth boundary makes fireflies)
+        r#"<medium type="homogeneous" name="interior">
+            <rgb name="sigma_t" value="6, 12, 8"/>
+            <rgb name="albedo" value="0.72, 0.96, 0.8"/>
+            <phase type="hg"><float name="g" value="0.3"/></phase>
+        </medium>"#,
+    ),
+    (
+        "subsurface skin",
+        "roughdielectric int_ior=1.4 alpha=0.3 distribution=ggx",
+        // red light travels furthest (lowest σt, highest albedo), as in skin
+        r#"<medium type="homogeneous" name="interior">
+            <rgb name="sigma_t" value="8, 12, 16"/>
+            <rgb name="albedo" value="0.95, 0.75, 0.6"/>
+        </medium>"#,
     ),
 ];
 
@@ -180,13 +221,21 @@ pub fn sky_image(width: usize) -> Image {
 }
 
 /// The template scene: the probe sphere (shape 0) on a checkerboard floor, seen from slightly
-/// above; the sky is added by [`preview_scene`].
-fn template_xml(size: usize) -> String {
+/// above; the sky is added by [`preview_scene`]. `medium` (a `<medium name="interior">`
+/// element, or empty) goes inside the probe, and with it the integrator becomes `volpath`.
+fn template_xml(size: usize, medium: &str) -> String {
+    let integrator = if medium.is_empty() {
+        r#"<integrator type="path">
+        <integer name="max_depth" value="16"/>
+    </integrator>"#
+    } else {
+        r#"<integrator type="volpath">
+        <integer name="max_depth" value="-1"/>
+    </integrator>"#
+    };
     format!(
         r#"<scene version="3.0.0">
-    <integrator type="path">
-        <integer name="max_depth" value="16"/>
-    </integrator>
+    {integrator}
     <sensor type="perspective">
         <float name="fov" value="28"/>
         <transform name="to_world">
@@ -205,6 +254,7 @@ fn template_xml(size: usize) -> String {
         <point name="center" value="0, 1, 0"/>
         <float name="radius" value="1"/>
         <bsdf type="diffuse"/>
+        {medium}
     </shape>
     <shape type="rectangle" id="floor">
         <transform name="to_world">
@@ -228,9 +278,19 @@ fn template_xml(size: usize) -> String {
 /// The preview scene at `size`×`size` pixels with the procedural sky; returns it with the
 /// index of the probe's BSDF in `scene.bsdfs`.
 pub fn preview_scene(size: usize) -> Result<(Scene, usize), CliError> {
-    let mut scene =
-        Scene::from_xml_str(&template_xml(size), "<gallery scene>", Path::new("."), &[])
-            .map_err(|e| CliError::usage(format!("gallery scene: {e}")))?;
+    preview_scene_with_medium(size, "")
+}
+
+/// [`preview_scene`] with `medium` (a `<medium name="interior">` element, or empty) inside
+/// the probe, rendered by `volpath` when there is one.
+pub fn preview_scene_with_medium(size: usize, medium: &str) -> Result<(Scene, usize), CliError> {
+    let mut scene = Scene::from_xml_str(
+        &template_xml(size, medium),
+        "<gallery scene>",
+        Path::new("."),
+        &[],
+    )
+    .map_err(|e| CliError::usage(format!("gallery scene: {e}")))?;
     let env = Envmap::new(&sky_image(1024), false, 1.0, &glam::Mat4::IDENTITY)
         .map_err(|e| CliError::usage(format!("gallery sky: {e}")))?;
     scene.add_light(Emitter::Envmap(Box::new(env)));
@@ -373,6 +433,61 @@ impl Typesetter {
 struct Entry {
     label: String,
     bsdf: specula_bsdf::Bsdf,
+    /// The probe's interior medium (XML), for the presets that have one.
+    medium: Option<&'static str>,
+}
+
+/// The entries of [`PRESETS`] and [`MEDIUM_PRESETS`].
+fn preset_entries() -> Result<Vec<Entry>, CliError> {
+    let mut entries = Vec::new();
+    for (label, spec) in PRESETS {
+        let bsdf = specula_bsdf::parse_spec(spec)
+            .map_err(|e| CliError::usage(format!("preset '{label}': {e}")))?;
+        entries.push(Entry {
+            label: label.to_string(),
+            bsdf,
+            medium: None,
+        });
+    }
+    for (label, spec, medium) in MEDIUM_PRESETS {
+        let bsdf = specula_bsdf::parse_spec(spec)
+            .map_err(|e| CliError::usage(format!("preset '{label}': {e}")))?;
+        entries.push(Entry {
+            label: label.to_string(),
+            bsdf,
+            medium: Some(medium),
+        });
+    }
+    Ok(entries)
+}
+
+/// Renders every entry's tile (linear RGB, `size`² pixels); `progress(k, done)` is told of
+/// tile `k`'s finished render tiles.
+fn render_tiles(
+    entries: &[Entry],
+    size: usize,
+    opts: &RenderOptions,
+    stop: &AtomicBool,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Vec<Vec<f32>>, CliError> {
+    let (mut scene, probe) = preview_scene(size)?;
+    let mut tiles = Vec::with_capacity(entries.len());
+    for (k, e) in entries.iter().enumerate() {
+        let r = match e.medium {
+            None => {
+                scene.bsdfs[probe] = e.bsdf.clone();
+                render(&scene, opts, stop, &|done, _| progress(k, done))
+            }
+            Some(medium) => {
+                let (mut s, p) = preview_scene_with_medium(size, medium)
+                    .map_err(|e2| CliError::usage(format!("preset '{}': {e2:?}", e.label)))?;
+                s.bsdfs[p] = e.bsdf.clone();
+                render(&s, opts, stop, &|done, _| progress(k, done))
+            }
+        };
+        tiles.push(r.rgb);
+    }
+    Ok(tiles)
 }
 
 pub fn run(args: &GalleryArgs, out: &mut dyn Write) -> Result<(), CliError> {
@@ -389,22 +504,17 @@ pub fn run(args: &GalleryArgs, out: &mut dyn Write) -> Result<(), CliError> {
     if args.columns == Some(0) {
         return Err(CliError::usage("--columns must be positive"));
     }
-    let mut entries = Vec::new();
-    if !args.no_presets {
-        for (label, spec) in PRESETS {
-            let bsdf = specula_bsdf::parse_spec(spec)
-                .map_err(|e| CliError::usage(format!("preset '{label}': {e}")))?;
-            entries.push(Entry {
-                label: label.to_string(),
-                bsdf,
-            });
-        }
-    }
+    let mut entries = if args.no_presets {
+        Vec::new()
+    } else {
+        preset_entries()?
+    };
     for m in &args.materials {
         let material = crate::material::load_material(std::slice::from_ref(m))?;
         entries.push(Entry {
             label: material.short_label(),
             bsdf: material.bsdf,
+            medium: None,
         });
     }
     if entries.is_empty() {
@@ -414,7 +524,6 @@ pub fn run(args: &GalleryArgs, out: &mut dyn Write) -> Result<(), CliError> {
     }
 
     let start = Instant::now();
-    let (mut scene, probe) = preview_scene(args.size)?;
     let opts = RenderOptions {
         spp: args.spp,
         seed: args.seed,
@@ -431,22 +540,24 @@ pub fn run(args: &GalleryArgs, out: &mut dyn Write) -> Result<(), CliError> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let stop = AtomicBool::new(false);
-    let mut tiles: Vec<Vec<f32>> = Vec::with_capacity(entries.len());
-    for (k, e) in entries.iter().enumerate() {
-        bar.set_message(format!("{}/{} {}", k + 1, entries.len(), e.label));
-        scene.bsdfs[probe] = e.bsdf.clone();
-        let r = render(&scene, &opts, &stop, &|done, _| {
-            bar.set_position((k * per_render + done) as u64);
-        });
-        tiles.push(r.rgb);
-    }
+    let tiles = render_tiles(&entries, args.size, &opts, &stop, &|k, done| {
+        if done == 0 {
+            bar.set_message(format!("{}/{} {}", k + 1, entries.len(), entries[k].label));
+        }
+        bar.set_position((k * per_render + done) as u64);
+    })?;
     bar.finish_and_clear();
 
     let columns = args.columns.unwrap_or(4);
     let layout = Layout::new(args.size, columns, entries.len());
     let labels: Vec<&str> = entries.iter().map(|e| e.label.as_str()).collect();
     let subtitle = format!(
-        "path traced at {} spp under a procedural sky · specula gallery",
+        "path traced{} at {} spp under a procedural sky · specula gallery",
+        if entries.iter().any(|e| e.medium.is_some()) {
+            " (media: volpath)"
+        } else {
+            ""
+        },
         args.spp
     );
     compose(&args.output, &layout, &tiles, &labels, &subtitle)?;
@@ -552,6 +663,91 @@ mod tests {
         for (label, spec) in PRESETS {
             specula_bsdf::parse_spec(spec).unwrap_or_else(|e| panic!("{label}: {e}"));
         }
+        // the medium presets build volpath scenes with the medium inside the probe
+        for (label, _, medium) in MEDIUM_PRESETS {
+            let (scene, _) =
+                preview_scene_with_medium(16, medium).unwrap_or_else(|e| panic!("{label}: {e:?}"));
+            assert!(scene.volpath, "{label}");
+            assert_eq!(scene.media.len(), 1, "{label}");
+            assert_eq!(scene.shape_media[0].interior, Some(0), "{label}");
+        }
+        let (scene, _) = preview_scene(16).unwrap();
+        assert!(!scene.volpath && scene.media.is_empty());
+    }
+
+    /// Mean linear RGB of the central `r`×`r` pixels of a `size`² tile (the probe).
+    fn centre(tile: &[f32], size: usize, r: usize) -> [f64; 3] {
+        let mut m = [0.0f64; 3];
+        let (a, b) = (size / 2 - r / 2, size / 2 + r / 2);
+        for y in a..b {
+            for x in a..b {
+                for (c, v) in m.iter_mut().enumerate() {
+                    *v += f64::from(tile[3 * (y * size + x) + c]);
+                }
+            }
+        }
+        m.map(|v| v / ((b - a) * (b - a)) as f64)
+    }
+
+    /// The medium presets render (small, few samples, fixed seed): finite, not black, and the
+    /// amber glass is the clear glass filtered by Beer–Lambert absorption (much less blue and
+    /// green against red than the same glass without its medium).
+    #[test]
+    fn medium_presets_render_and_absorbing_glass_is_coloured() {
+        let size = 40;
+        let mut entries = vec![Entry {
+            label: "clear glass".into(),
+            bsdf: specula_bsdf::parse_spec(MEDIUM_PRESETS[0].1).unwrap(),
+            medium: None,
+        }];
+        entries.extend(
+            preset_entries()
+                .unwrap()
+                .into_iter()
+                .filter(|e| e.medium.is_some()),
+        );
+        assert_eq!(entries.len(), 1 + MEDIUM_PRESETS.len());
+        let opts = RenderOptions {
+            spp: 32,
+            seed: 3,
+            threads: 0,
+        };
+        let tiles =
+            render_tiles(&entries, size, &opts, &AtomicBool::new(false), &|_, _| {}).unwrap();
+        for (e, t) in entries.iter().zip(&tiles) {
+            assert_eq!(t.len(), 3 * size * size);
+            assert!(t.iter().all(|v| v.is_finite() && *v >= 0.0), "{}", e.label);
+            let m = centre(t, size, 12);
+            println!("{}: probe centre {m:.4?}", e.label);
+            assert!(
+                m.iter().sum::<f64>() > 0.05,
+                "{}: black probe {m:?}",
+                e.label
+            );
+        }
+        let clear = centre(&tiles[0], size, 12);
+        let amber = centre(&tiles[1], size, 12);
+        // through the centre the refracted path is ~2 long: blue/red falls by e^(−3.9) ≈ 0.02
+        // and green/red by e^(−1.3) ≈ 0.27, diluted by the (uncoloured) surface reflection
+        let ratio = |m: [f64; 3], c: usize| m[c] / m[0];
+        let (rb, rg) = (
+            ratio(amber, 2) / ratio(clear, 2),
+            ratio(amber, 1) / ratio(clear, 1),
+        );
+        assert!(rb < 0.25, "blue/red of amber over clear glass: {rb}");
+        assert!(
+            rg < 0.6 && rg > rb,
+            "green/red of amber over clear glass: {rg}"
+        );
+        assert!(
+            amber[0] > 0.5 * clear[0],
+            "red is hardly absorbed: {amber:?} {clear:?}"
+        );
+        // the subsurface presets take their albedo's tint: jade green, skin red
+        let jade = centre(&tiles[2], size, 12);
+        let skin = centre(&tiles[3], size, 12);
+        assert!(jade[1] > 1.3 * jade[0].max(jade[2]), "{jade:?}");
+        assert!(skin[0] > 2.0 * skin[1].max(skin[2]), "{skin:?}");
     }
 
     #[test]

@@ -11,6 +11,7 @@ mod fresnel;
 mod gallery;
 mod material;
 mod output;
+mod phase;
 mod plot;
 mod render;
 
@@ -32,10 +33,12 @@ enum Command {
     /// Fresnel reflectance vs incidence angle: a dielectric (`--ior`) or a named conductor
     /// (`--material`); `specula fresnel plot …` draws it.
     Fresnel(fresnel::FresnelArgs),
-    /// Render a Mitsuba 3 scene (XML) to OpenEXR or PNG.
+    /// Render a Mitsuba 3 scene (XML) to OpenEXR or PNG, with the scene's integrator (`path`,
+    /// `volpath` for participating media, `direct`, `depth`, `aov`).
     Render(render::RenderArgs),
     /// Render a labelled contact sheet (PNG) of material previews: every built-in preset and
-    /// any materials given, each on a sphere on a checkerboard floor under a procedural sky.
+    /// any materials given, each on a sphere on a checkerboard floor under a procedural sky
+    /// (the absorbing-glass and subsurface presets fill the sphere with a medium: `volpath`).
     Gallery(gallery::GalleryArgs),
     /// Work with one material: a spec ("roughconductor material=Cu alpha=0.2"), an XML snippet,
     /// a MERL .binary or RGL .bsdf file, or scene.xml#id.
@@ -43,12 +46,19 @@ enum Command {
         #[command(subcommand)]
         command: brdf::BrdfCommand,
     },
+    /// Work with participating media's phase functions (isotropic, hg, rayleigh, blendphase),
+    /// given as specs ("hg g=0.7") or XML snippets, without a scene.
+    Phase {
+        #[command(subcommand)]
+        command: phase::PhaseCommand,
+    },
 }
 
 fn run(cli: Cli, out: &mut dyn std::io::Write) -> Result<(), CliError> {
     match cli.command {
         Command::Fresnel(args) => fresnel::run(&args, out),
         Command::Brdf { command } => brdf::run(command, out),
+        Command::Phase { command } => phase::run(command, out),
         Command::Render(args) => render::run(&args, out),
         Command::Gallery(args) => gallery::run(&args, out),
     }

@@ -27,6 +27,11 @@ pub struct RenderArgs {
     /// window reset to the whole film).
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     pub size: Option<(usize, usize)>,
+    /// Render as Mitsuba 3.9 does where it departs from its plugins' definitions (today:
+    /// `blendbsdf` with a Dirac component loses energy in Mitsuba; see README, "Mitsuba
+    /// compatibility"). Off by default: Specula follows the definitions.
+    #[arg(long)]
+    pub mitsuba_compat: bool,
     /// Samples per pixel (overrides the scene's sampler).
     #[arg(long)]
     pub spp: Option<u32>,
@@ -67,7 +72,10 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
             output.display()
         )));
     }
-    let load = LoadOptions { size: args.size };
+    let load = LoadOptions {
+        size: args.size,
+        mitsuba_compat: args.mitsuba_compat,
+    };
     let mut scene = Scene::load_with(&args.scene, &defines, &load).map_err(CliError::usage)?;
     if let Some(name) = &args.sampler {
         scene.sampler.kind = SamplerKind::parse(name).ok_or_else(|| {

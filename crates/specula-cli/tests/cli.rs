@@ -1103,3 +1103,78 @@ fn render_with_another_sampler_and_aov_channels() {
     assert!(stderr(&o).contains("use .exr"), "{}", stderr(&o));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn phase_plot_draws_and_refuses_bad_phase_functions() {
+    let dir = CheckScratch::new("phase-plot");
+    let png = dir.0.join("hg.png");
+    let text = plot_writes(
+        &[
+            "phase",
+            "plot",
+            "hg",
+            "--g",
+            "0.3,0.7,-0.5",
+            "--samples",
+            "20000",
+        ],
+        &png,
+        Some((1200, 560)),
+    );
+    // one table row per curve: normalisation 1 and the mean cosine g, analytic and sampled
+    for g in ["0.3", "0.7", "-0.5"] {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&format!("hg g={g} ")))
+            .unwrap_or_else(|| panic!("no row for g = {g}: {text}"));
+        let v: Vec<f64> = line
+            .split_whitespace()
+            .skip(2)
+            .map(|w| w.parse().unwrap())
+            .collect();
+        let g: f64 = g.parse().unwrap();
+        assert!(
+            (v[0] - 1.0).abs() < 1e-3 && (v[1] - g).abs() < 1e-3,
+            "{line}"
+        );
+        assert!((v[2] - g).abs() < 0.02, "{line}");
+    }
+    plot_writes(
+        &[
+            "phase",
+            "plot",
+            "rayleigh",
+            "isotropic",
+            "blendphase weight=0.3 { hg g=-0.4 } { hg g=0.9 }",
+            r#"<phase type="hg"><float name="g" value="0.5"/></phase>"#,
+            "--log",
+            "--size",
+            "800x400",
+        ],
+        &dir.0.join("mix.svg"),
+        None,
+    );
+    let bad = dir.0.join("bad.png");
+    for (args, expect) in [
+        (vec!["hg", "g=1"], "g must lie in (−1, 1)"),
+        (vec!["hg", "--g", "-1.5"], "g must lie in (−1, 1)"),
+        (vec!["mie"], "phase function 'mie' is not supported"),
+        (vec!["hg", "x=2"], "unknown parameter 'x'"),
+        (vec!["blendphase", "{", "isotropic", "}"], "exactly two"),
+        (
+            vec![r#"<phase type="hg"><float name="g" value="3"/></phase>"#],
+            "<phase argument>:1:",
+        ),
+        (vec![], "no phase function"),
+    ] {
+        let mut all = vec!["phase", "plot"];
+        all.extend(&args);
+        all.extend(["-o", bad.to_str().unwrap()]);
+        let o = specula(&all);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{all:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{all:?}: {err}");
+        assert!(err.contains(expect), "{all:?}: {err}");
+        assert!(!bad.exists(), "{all:?} wrote a picture");
+    }
+}

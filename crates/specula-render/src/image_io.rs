@@ -45,6 +45,19 @@ impl Image {
 /// The sRGB transfer curve, decoding: encoded value in [0, 1] → linear.
 #[inline]
 pub fn srgb_to_linear(v: f32) -> f32 {
+    // 8-bit images (v = k/255 as decoded) through a table of the same formula: decoding a
+    // texture spent most of its time in `pow`
+    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    let k = (v * 255.0).round();
+    if (0.0..=255.0).contains(&k) && k / 255.0 == v {
+        let table = TABLE.get_or_init(|| std::array::from_fn(|i| srgb_formula(i as f32 / 255.0)));
+        return table[k as usize];
+    }
+    srgb_formula(v)
+}
+
+#[inline]
+fn srgb_formula(v: f32) -> f32 {
     let v = v as f64;
     let l = if v <= 0.04045 {
         v / 12.92

@@ -114,6 +114,121 @@ pub fn mean_ratio(img: &RgbImage, reference: &RgbImage) -> [f64; 3] {
     r
 }
 
+/// The conformance criteria of `../shared/README.md` for one scene: Mitsuba's own error at
+/// 64 spp against the reference (as `metrics.json` gives it, averaged over seeds) and the
+/// mean-ratio tolerance.
+#[derive(Clone, Copy, Debug)]
+pub struct Criteria {
+    /// `mitsuba_64spp_relmse`.
+    pub mitsuba_relmse: f64,
+    /// `mitsuba_64spp_block8`.
+    pub mitsuba_block8: f64,
+    /// Every channel's mean ratio must lie within 1 ± this.
+    pub mean_tol: f64,
+}
+
+/// How renders compare with a reference under [`Criteria`].
+#[derive(Clone, Debug)]
+pub struct Verdict {
+    /// Per-channel mean ratio, averaged over the renders.
+    pub mean: [f64; 3],
+    pub block8: f64,
+    pub relmse: f64,
+    pub ok_mean: bool,
+    pub ok_block8: bool,
+    pub ok_relmse: bool,
+}
+
+impl Criteria {
+    /// Reads a scene's entry of a `metrics.json` (`mitsuba_64spp_relmse`,
+    /// `mitsuba_64spp_block8`), with the given mean tolerance.
+    pub fn new(mitsuba_relmse: f64, mitsuba_block8: f64, mean_tol: f64) -> Self {
+        Criteria {
+            mitsuba_relmse,
+            mitsuba_block8,
+            mean_tol,
+        }
+    }
+    /// The largest block8 that conforms: 2 × Mitsuba's + 1e-5.
+    pub fn block8_limit(&self) -> f64 {
+        2.0 * self.mitsuba_block8 + 1e-5
+    }
+    /// The largest relMSE that conforms: 1.5 × Mitsuba's.
+    pub fn relmse_limit(&self) -> f64 {
+        1.5 * self.mitsuba_relmse
+    }
+    /// Judges renders of one scene (one per seed, all at 64 spp) against its reference. Each
+    /// metric is averaged over the renders, as Mitsuba's own figures are averaged over seeds.
+    pub fn judge(&self, renders: &[RgbImage], reference: &RgbImage) -> Verdict {
+        assert!(!renders.is_empty(), "judge needs at least one render");
+        let n = renders.len() as f64;
+        let mut mean = [0.0; 3];
+        let (mut b, mut r) = (0.0, 0.0);
+        for img in renders {
+            let m = mean_ratio(img, reference);
+            for c in 0..3 {
+                mean[c] += m[c] / n;
+            }
+            b += block8(img, reference) / n;
+            r += relmse(img, reference) / n;
+        }
+        Verdict {
+            mean,
+            block8: b,
+            relmse: r,
+            ok_mean: mean.iter().all(|v| (v - 1.0).abs() <= self.mean_tol),
+            ok_block8: b <= self.block8_limit(),
+            ok_relmse: r <= self.relmse_limit(),
+        }
+    }
+}
+
+impl Verdict {
+    /// All three criteria hold.
+    pub fn ok(&self) -> bool {
+        self.ok_mean && self.ok_block8 && self.ok_relmse
+    }
+    /// `mean [r g b] (±tol)  block8 … (mitsuba …)  relmse … (mitsuba …)`, for test tables.
+    pub fn row(&self, c: &Criteria) -> String {
+        format!(
+            "mean [{:.4} {:.4} {:.4}] (±{:.3})  block8 {:.3e} (mitsuba {:.3e})  relmse {:.3e} (mitsuba {:.3e})",
+            self.mean[0],
+            self.mean[1],
+            self.mean[2],
+            c.mean_tol,
+            self.block8,
+            c.mitsuba_block8,
+            self.relmse,
+            c.mitsuba_relmse
+        )
+    }
+    /// Which criteria fail and by how much, for failure messages.
+    pub fn failures(&self, c: &Criteria) -> String {
+        let mut f = vec![];
+        if !self.ok_mean {
+            f.push(format!(
+                "mean {:?} not within 1 ± {}",
+                self.mean, c.mean_tol
+            ));
+        }
+        if !self.ok_block8 {
+            f.push(format!(
+                "block8 {:.3e} > {:.3e}",
+                self.block8,
+                c.block8_limit()
+            ));
+        }
+        if !self.ok_relmse {
+            f.push(format!(
+                "relmse {:.3e} > {:.3e}",
+                self.relmse,
+                c.relmse_limit()
+            ));
+        }
+        f.join(", ")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -164,5 +279,24 @@ mod tests {
         assert!(relmse(&a, &r) > 0.2);
         assert!(block8(&a, &r) < 1e-12);
         assert!((mean_ratio(&a, &r)[0] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn criteria_average_over_renders_and_name_what_fails() {
+        let reference = img(16, 16, |x, y, c| 0.5 + (x * y + c) as f32 * 0.01);
+        let bright = img(16, 16, |x, y, c| 1.05 * (0.5 + (x * y + c) as f32 * 0.01));
+        let c = Criteria::new(1e-3, 1e-4, 0.01);
+        let v = c.judge(std::slice::from_ref(&reference), &reference);
+        assert!(v.ok(), "{}", v.row(&c));
+        // a 5 % bias fails the mean and the bias detector; averaged with an exact render the
+        // mean ratio is 1.025, still outside ±1 %
+        let v = c.judge(&[bright.clone(), reference.clone()], &reference);
+        assert!((v.mean[0] - 1.025).abs() < 1e-6, "{:?}", v.mean);
+        assert!(!v.ok_mean && !v.ok_block8 && !v.ok());
+        let why = v.failures(&c);
+        assert!(why.contains("mean") && why.contains("block8"), "{why}");
+        // relMSE is the mean of the renders' relMSEs
+        let r = (relmse(&bright, &reference) + 0.0) / 2.0;
+        assert!((v.relmse - r).abs() < 1e-12);
     }
 }

@@ -109,11 +109,33 @@ pub struct LoadOptions {
     /// camera's field of view given as the horizontal one it had on the original film (a
     /// sensor without a film gets an `hdrfilm` of this size).
     pub size: Option<(usize, usize)>,
+    /// Reproduce Mitsuba 3.9's known deviations from the plugins' definitions, so that a scene
+    /// renders as Mitsuba 3.9 renders it (`specula render --mitsuba-compat`). Today one:
+    /// `blendbsdf` weights a sample of a Dirac lobe as Mitsuba 3.9 does (an energy loss; see
+    /// the `dirac_mixing` parameter of `blendbsdf`), unless the file sets `dirac_mixing`.
+    pub mitsuba_compat: bool,
 }
 
 impl LoadOptions {
     /// Applies the options to the parsed scene tree.
     fn apply(&self, root: &mut Node) -> Result<()> {
+        if self.mitsuba_compat {
+            let mut stack: Vec<&mut Node> = vec![&mut *root];
+            while let Some(n) = stack.pop() {
+                if n.tag == "bsdf"
+                    && n.plugin_type == "blendbsdf"
+                    && !n.props.iter().any(|p| p.name == "dirac_mixing")
+                {
+                    let loc = n.loc.clone();
+                    n.props.push(crate::xml::Prop::new(
+                        "dirac_mixing",
+                        PropValue::Str("mitsuba".into()),
+                        loc,
+                    ));
+                }
+                stack.extend(n.children.iter_mut());
+            }
+        }
         let Some((w, h)) = self.size else {
             return Ok(());
         };

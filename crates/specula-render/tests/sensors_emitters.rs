@@ -83,6 +83,7 @@ fn size_option_equals_editing_the_film() {
         &[],
         &LoadOptions {
             size: Some((40, 24)),
+            ..Default::default()
         },
     )
     .unwrap();
@@ -132,6 +133,7 @@ fn size_option_equals_editing_the_film() {
         &[],
         &LoadOptions {
             size: Some((30, 20)),
+            ..Default::default()
         },
     )
     .unwrap();
@@ -143,6 +145,7 @@ fn size_option_equals_editing_the_film() {
         &[],
         &LoadOptions {
             size: Some((0, 20)),
+            ..Default::default()
         },
     )
     .err();

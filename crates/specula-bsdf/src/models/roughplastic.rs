@@ -9,7 +9,6 @@ use crate::bsdf::*;
 use crate::frame::{reflect, refract};
 use crate::fresnel::FresnelMode;
 use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
-use crate::quad::gauss_legendre;
 use crate::spectrum::Spectrum;
 use crate::warp;
 use glam::{Vec2, Vec3};
@@ -43,17 +42,12 @@ fn visible_normal_quadrature(
     res: usize,
     g: impl Fn(Vec3) -> f32,
 ) -> f32 {
-    let mut vd = *distr;
-    vd.sample_visible = true;
-    let (x, w) = gauss_legendre(res);
+    let (x, w) = crate::quad::gauss_legendre_cached(res);
+    let us: Vec<f32> = x.iter().map(|xj| (0.5 * xj + 0.5) as f32).collect();
     let mut sum = 0.0f64;
-    for (xj, wj) in x.iter().zip(&w) {
-        for (xk, wk) in x.iter().zip(&w) {
-            let u = Vec2::new((0.5 * xj + 0.5) as f32, (0.5 * xk + 0.5) as f32);
-            let (m, _) = vd.sample(wi, u);
-            sum += g(m) as f64 * wj * wk * 0.25;
-        }
-    }
+    distr.visible_normal_grid(wi, &us, |j, k, m| {
+        sum += g(m) as f64 * w[j] * w[k] * 0.25;
+    });
     sum as f32
 }
 
@@ -96,6 +90,79 @@ pub fn rough_specular_transmittance(
     })
 }
 
+/// The coat's transmittance table over cosθ and its hemispherical internal reflectance, for
+/// one (distribution, α, G1 form, η, Fresnel): computed once per process (materials that
+/// share them share the work), the table's entries spread over the available cores.
+fn coat_tables(
+    distr: &MicrofacetDistribution,
+    distribution: MicrofacetType,
+    rational_g1: bool,
+    eta: f32,
+    fresnel: FresnelMode,
+) -> ([f32; TRANSMITTANCE_RES], f32) {
+    use std::sync::{Mutex, OnceLock};
+    type Key = (bool, u32, bool, u32, bool);
+    type Tables = Vec<(Key, ([f32; TRANSMITTANCE_RES], f32))>;
+    static CACHE: OnceLock<Mutex<Tables>> = OnceLock::new();
+    let key = (
+        distribution == MicrofacetType::Ggx,
+        distr.alpha_u.to_bits(),
+        rational_g1,
+        eta.to_bits(),
+        fresnel == FresnelMode::Schlick,
+    );
+    let cache = CACHE.get_or_init(Default::default);
+    if let Some((_, t)) = cache
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .iter()
+        .find(|(k, _)| *k == key)
+    {
+        return *t;
+    }
+    // per node: (transmittance, internal reflectance × μ)
+    let node = |i: usize| {
+        let mu = (i as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6);
+        let wi = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+        let res_ext = if eta > 1.0 { 32 } else { 128 };
+        let res_int = if 1.0 / eta > 1.0 { 32 } else { 128 };
+        (
+            rough_specular_transmittance(distr, fresnel, wi, eta, res_ext),
+            (rough_specular_albedo(distr, fresnel, wi, 1.0 / eta, res_int) * mu) as f64,
+        )
+    };
+    let mut nodes = [(0.0f32, 0.0f64); TRANSMITTANCE_RES];
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(TRANSMITTANCE_RES);
+    let chunk = TRANSMITTANCE_RES.div_ceil(threads);
+    std::thread::scope(|scope| {
+        for (c, part) in nodes.chunks_mut(chunk).enumerate() {
+            let node = &node;
+            scope.spawn(move || {
+                for (j, v) in part.iter_mut().enumerate() {
+                    *v = node(c * chunk + j);
+                }
+            });
+        }
+    });
+    let mut external_transmittance = [0.0; TRANSMITTANCE_RES];
+    let mut internal = 0.0f64;
+    for (t, (ti, ri)) in external_transmittance.iter_mut().zip(nodes) {
+        *t = ti;
+        internal += ri;
+    }
+    // Mitsuba's estimate of the hemispherical average 2∫R(μ)μ dμ: twice the mean over the
+    // table's nodes
+    let internal_reflectance = (2.0 * internal / TRANSMITTANCE_RES as f64) as f32;
+    let t = (external_transmittance, internal_reflectance);
+    cache
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push((key, t));
+    t
+}
+
 impl RoughPlastic {
     #[allow(clippy::too_many_arguments)]
     pub fn new(
@@ -111,20 +178,8 @@ impl RoughPlastic {
     ) -> Self {
         let distr = MicrofacetDistribution::new(distribution, alpha, alpha, true)
             .with_rational_g1(rational_g1);
-        let mut external_transmittance = [0.0; TRANSMITTANCE_RES];
-        let mut internal = 0.0f64;
-        for (i, t) in external_transmittance.iter_mut().enumerate() {
-            let mu = (i as f32 / (TRANSMITTANCE_RES - 1) as f32).max(1e-6);
-            let wi = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-            let res_ext = if eta > 1.0 { 32 } else { 128 };
-            let res_int = if 1.0 / eta > 1.0 { 32 } else { 128 };
-            *t = rough_specular_transmittance(&distr, fresnel, wi, eta, res_ext);
-            internal +=
-                (rough_specular_albedo(&distr, fresnel, wi, 1.0 / eta, res_int) * mu) as f64;
-        }
-        // Mitsuba's estimate of the hemispherical average 2∫R(μ)μ dμ: twice the mean over the
-        // table's nodes
-        let internal_reflectance = (2.0 * internal / TRANSMITTANCE_RES as f64) as f32;
+        let (external_transmittance, internal_reflectance) =
+            coat_tables(&distr, distribution, rational_g1, eta, fresnel);
         let specular_sampling_weight =
             super::plastic::sampling_weight(&diffuse_reflectance, &specular_reflectance);
         RoughPlastic {

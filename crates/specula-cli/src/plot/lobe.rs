@@ -169,7 +169,7 @@ pub fn dirac_directions(bsdf: &Bsdf, ctx: &BsdfContext, wi: Vec3) -> Vec<f64> {
 
 /// How values map to the radius (1 = the outer ring).
 #[derive(Clone, Debug)]
-enum Scale {
+pub(crate) enum Scale {
     /// r = v / max; rings at `rings`.
     Linear { max: f64, rings: Vec<f64> },
     /// r = (log10 v − (top − decades)) / decades, clamped to [0, 1]; rings every decade.
@@ -177,7 +177,7 @@ enum Scale {
 }
 
 impl Scale {
-    fn new(vmax: f64, log: Option<u32>) -> Scale {
+    pub(crate) fn new(vmax: f64, log: Option<u32>) -> Scale {
         match log {
             Some(decades) => Scale::Log {
                 top: vmax.log10().ceil() as i32,
@@ -194,7 +194,7 @@ impl Scale {
         }
     }
 
-    fn radius(&self, v: f64) -> f64 {
+    pub(crate) fn radius(&self, v: f64) -> f64 {
         match *self {
             Scale::Linear { max, .. } => v / max,
             Scale::Log { top, decades } => {
@@ -209,7 +209,7 @@ impl Scale {
     }
 
     /// (radius, label) of the rings.
-    fn rings(&self) -> Vec<(f64, String)> {
+    pub(crate) fn rings(&self) -> Vec<(f64, String)> {
         match self {
             Scale::Linear { max, rings } => {
                 rings.iter().map(|&v| (v / max, tick_label(v))).collect()

@@ -10,6 +10,7 @@
 pub mod albedo;
 pub mod fresnel;
 pub mod lobe;
+pub mod phase;
 pub mod slice;
 
 use std::cell::Cell;

@@ -921,7 +921,7 @@ mod tests {
                 r#"<integrator type="depth"><integrator type="path"/></integrator>"#,
                 "cannot be nested",
             ),
-            (r#"<integrator type="volpathmis"/>"#, "not supported"),
+            (r#"<integrator type="ptracer"/>"#, "not supported"),
         ] {
             let e = scene(bad, "").err().unwrap().to_string();
             assert!(e.contains(msg) && e.contains("<test>:2:"), "{e}");

@@ -35,7 +35,12 @@
 //! channel.
 //!
 //! Deviations from Mitsuba: a `sigma_t` or `albedo` holding NaN, infinite or negative values,
-//! or an albedo above 1, is refused (Mitsuba renders garbage).
+//! or an albedo above 1, is refused (Mitsuba renders garbage); so is a medium whose majorant
+//! optical depth across its box (σ̄ × the box's diagonal, the expected number of tentative
+//! collisions per crossing) exceeds [`MAX_MAJORANT_DEPTH`] (Mitsuba would run for hours). Distances
+//! along the ray are accumulated in f64, so that small steps far from the ray's origin still
+//! advance; a single tracking that takes more than [`MAX_COLLISIONS`] tentative collisions
+//! ends the path (free flight) or returns 0 (transmittance) rather than run on.
 
 use super::phase::PhaseFunction;
 use super::volume::Volume;
@@ -43,6 +48,11 @@ use super::FreeFlight;
 use crate::sampler::Sampler;
 use glam::Vec3;
 use specula_bsdf::Rgb;
+
+/// The largest majorant optical depth across the medium's box that a scene may ask for.
+pub const MAX_MAJORANT_DEPTH: f32 = 1.0e6;
+/// The most tentative collisions one tracking takes.
+pub const MAX_COLLISIONS: u32 = 1 << 24;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Heterogeneous {
@@ -110,17 +120,18 @@ impl Heterogeneous {
                 pdf: Rgb::ONE,
             };
         };
-        let inv_maj = 1.0 / self.majorant;
+        let inv_maj = 1.0 / self.majorant as f64;
         // contribution and probability of the null collisions so far, per channel, both
         // divided by the hero's (common factors cancel in the integrator's ratios)
         let mut value = Rgb::ONE;
         let mut pdf = Rgb::ONE;
-        let mut t = t0;
-        loop {
-            t -= (1.0 - rng.next_1d()).ln() * inv_maj;
-            if t >= t1 {
+        let mut t = t0 as f64;
+        for _ in 0..MAX_COLLISIONS {
+            t -= (1.0 - rng.next_1d() as f64).ln() * inv_maj;
+            if t >= t1 as f64 {
                 return FreeFlight::Pass { value, pdf };
             }
+            let t = t as f32;
             let p = o + d * t;
             let st = self.sigma_t_at(p);
             let u = rng.next_1d();
@@ -141,6 +152,10 @@ impl Heterogeneous {
             value *= sn / h;
             pdf *= sn / h;
         }
+        FreeFlight::Pass {
+            value: Rgb::ZERO,
+            pdf: Rgb::ONE,
+        }
     }
 
     /// Ratio-tracking estimate of the transmittance along `o + t·d`, 0 ≤ t < `dist` (may be
@@ -157,18 +172,19 @@ impl Heterogeneous {
         };
         let inv_maj = 1.0 / self.majorant;
         let mut tr = Rgb::ONE;
-        let mut t = t0;
-        loop {
-            t -= (1.0 - rng.next_1d()).ln() * inv_maj;
-            if t >= t1 {
+        let mut t = t0 as f64;
+        for _ in 0..MAX_COLLISIONS {
+            t -= (1.0 - rng.next_1d() as f64).ln() / self.majorant as f64;
+            if t >= t1 as f64 {
                 return tr;
             }
-            let st = self.sigma_t_at(o + d * t);
+            let st = self.sigma_t_at(o + d * t as f32);
             tr *= st.map(|s| (1.0 - s * inv_maj).max(0.0));
             if tr.is_black() {
                 return Rgb::ZERO;
             }
         }
+        Rgb::ZERO
     }
 }
 
@@ -293,6 +309,44 @@ mod tests {
         let above = Vec3::new(0.0, 3.0, 0.0);
         assert_eq!(m.transmittance(above, Vec3::X, 10.0, &mut rng), Rgb::ONE);
         assert_eq!(m.transmittance(o, d, 0.4, &mut rng), Rgb::ONE);
+    }
+
+    /// Small steps far from the ray's origin still advance (distances accumulate in f64): a
+    /// unit box 10⁵ units away whose σt ramps from 0 (its first quarter) to 10⁵ (its last
+    /// quarter, a 1×1×2 grid). Mean free paths of the majorant (10⁻⁵) are far below an f32
+    /// distance's resolution there (~8·10⁻³), so f32 tracking would never cross the empty
+    /// quarter; here each of 200 free flights scatters inside the box past the empty quarter,
+    /// and each ratio-tracking estimate across the box is 0 (transmittance ~e^−50000).
+    #[test]
+    fn tracking_far_from_the_origin() {
+        let to_world = Mat4::from_translation(Vec3::new(0.0, 0.0, 1.0e5));
+        let grid = GridVolume::new(
+            [1, 1, 2],
+            vec![Rgb::ZERO, Rgb::splat(1.0e5)],
+            true,
+            Wrap::Clamp,
+            to_world,
+        );
+        let m = Heterogeneous::new(
+            Volume::Grid(std::sync::Arc::new(grid)),
+            Volume::constant(Rgb::ONE),
+            1.0,
+            PhaseFunction::Isotropic,
+        );
+        let o = Vec3::new(0.5, 0.5, 0.0);
+        let mut rng = Pcg32::new(3, 3);
+        for _ in 0..200 {
+            match m.sample_free_flight(o, Vec3::Z, f32::INFINITY, 0, &mut rng) {
+                FreeFlight::Scatter { t, value, .. } => {
+                    assert!(
+                        (1.0e5 + 0.25..=1.0e5 + 1.0).contains(&t) && !value.is_black(),
+                        "{t}"
+                    )
+                }
+                FreeFlight::Pass { .. } => panic!("passed a box of optical depth 50,000"),
+            }
+            assert_eq!(m.transmittance(o, Vec3::Z, 2.0e5, &mut rng), Rgb::ZERO);
+        }
     }
 
     /// The mean free path in a constant grid (σt = 2.5 after `scale`, a box much larger than

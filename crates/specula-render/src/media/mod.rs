@@ -362,6 +362,13 @@ pub fn medium_from_node(n: &Node) -> Result<Medium> {
                 ));
             }
             let phase = medium_phase(n, &["sigma_t", "albedo"])?;
+            let depth = (majorant * (sigma_t.bbox().1 - sigma_t.bbox().0).length()) as f64;
+            if depth > heterogeneous::MAX_MAJORANT_DEPTH as f64 {
+                return Err(err(
+                    n,
+                    format!("the medium's majorant optical depth across its volume's box is {depth:.3e} (scale × the largest sigma_t × the box's diagonal; at most {:e}): delta tracking would take that many steps per ray", heterogeneous::MAX_MAJORANT_DEPTH),
+                ));
+            }
             n.check_unused(&[
                 "sigma_t",
                 "albedo",
@@ -681,6 +688,10 @@ mod tests {
             (
                 r#"<medium type="heterogeneous"><float name="density" value="1"/></medium>"#.into(),
                 "density".into(),
+            ),
+            (
+                r#"<medium type="heterogeneous"><float name="sigma_t" value="1e4"/><float name="scale" value="1e3"/></medium>"#.into(),
+                "optical depth".into(),
             ),
             (
                 r#"<medium type="heterogeneous"><volume type="gridvolume" name="sigma_t"/></medium>"#.into(),

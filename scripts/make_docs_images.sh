@@ -20,6 +20,12 @@ $S fresnel plot --ior 1.5 -o docs/fresnel.png
 $S fresnel plot --material Au -o docs/fresnel_au.png
 $S brdf slice "$SHARED/data/merl/mitsuba_rough_plastic.binary" -o docs/slice.png
 $S brdf albedo "roughconductor material=none alpha=0.8 distribution=ggx" -o docs/albedo.png
+P="principled base_color=0.8,0.3,0.2 roughness=0.35 spec_trans=0.6 clearcoat=0.8 clearcoat_gloss=0.8 sheen=0.5"
+PT="principledthin base_color=0.4,0.8,0.2 roughness=0.3 spec_trans=0.5 diff_trans=1 eta=1.33"
+$S brdf plot "$P" -o docs/principled_lobe.png
+$S brdf albedo "$P" -o docs/principled_albedo.png >/dev/null
+$S brdf plot "$PT" -o docs/principledthin_lobe.png
+$S brdf albedo "$PT" -o docs/principledthin_albedo.png >/dev/null
 $S phase plot hg --g 0.2,0.6,0.9,-0.4 rayleigh --log -o docs/phase.png
 $S gallery --quiet -o docs/gallery.png "$SHARED/data/merl/mitsuba_rough_copper.binary" \
     "$SHARED/data/rgl/acrylic_felt_green_rgb.bsdf"

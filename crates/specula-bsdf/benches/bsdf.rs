@@ -73,6 +73,22 @@ const MODELS: &[(&str, &str, Domain)] = &[
         Domain::Reflection,
     ),
     (
+        "principled",
+        "principled base_color=0.8,0.3,0.2 roughness=0.4 metallic=0.2 spec_tint=0.3 \
+         sheen=0.5 clearcoat=0.5 clearcoat_gloss=0.7",
+        Domain::Reflection,
+    ),
+    (
+        "principled_spec_trans",
+        "principled base_color=0.9 roughness=0.3 spec_trans=0.8 eta=1.5",
+        Domain::Sphere,
+    ),
+    (
+        "principledthin",
+        "principledthin base_color=0.4,0.8,0.2 roughness=0.5 spec_trans=0.3 diff_trans=1",
+        Domain::Sphere,
+    ),
+    (
         "twosided_diffuse",
         "twosided { diffuse reflectance=0.5 }",
         Domain::Sphere,

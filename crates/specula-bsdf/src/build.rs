@@ -96,6 +96,8 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
         ],
     ),
     ("sheen", &["reflectance", "roughness"]),
+    ("principled", crate::models::principled::PARAMS),
+    ("principledthin", crate::models::principledthin::PARAMS),
     ("twosided", &[]),
     ("blendbsdf", &["weight", "dirac_mixing"]),
     ("measured", &["filename"]),
@@ -404,6 +406,8 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
             reflectance: p.spectrum("reflectance", 1.0)?,
             roughness: p.float_param("roughness", 0.5)?,
         }),
+        "principled" => Bsdf::Principled(Box::new(Principled::from_props(&p)?)),
+        "principledthin" => Bsdf::PrincipledThin(Box::new(PrincipledThin::from_props(&p)?)),
         "twosided" => {
             // one nested BSDF serves both sides (a copy): nesting doubles the tree at every
             // level, so its size is bounded before copying

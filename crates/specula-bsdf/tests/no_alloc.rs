@@ -41,6 +41,8 @@ fn hot_paths_do_not_allocate() {
         "plastic",
         "roughplastic distribution=ggx alpha=0.1",
         "sheen roughness=0.3",
+        "principled metallic=0.3 spec_trans=0.5 clearcoat=0.5 sheen=0.5 spec_tint=0.5 flatness=0.5",
+        "principledthin spec_trans=0.5 diff_trans=0.8 sheen=0.5 spec_tint=0.5",
         "twosided { roughconductor alpha=0.2 }",
         "blendbsdf weight=0.4 { diffuse } { plastic }",
     ];

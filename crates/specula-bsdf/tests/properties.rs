@@ -180,6 +180,66 @@ fn cases() -> Vec<Case> {
             true,
         );
     }
+    // principled: white base colour and no transmission conserves energy only for the
+    // metallic and specular lobes (the Disney diffuse and its retro-reflection exceed 1 at
+    // grazing angles, as in Mitsuba), so only those are "white"
+    add(
+        "principled",
+        "principled base_color=1 metallic=1 roughness=0.5 anisotropic=0.6".into(),
+        None,
+        &OUTSIDE,
+        true,
+    );
+    add(
+        "principled",
+        "principled base_color=0.8,0.4,0.2 roughness=0.4 sheen=1 sheen_tint=0.5 clearcoat=1 clearcoat_gloss=0.9 flatness=0.5 spec_tint=0.5 metallic=0.3".into(),
+        None,
+        &OUTSIDE,
+        false,
+    );
+    add(
+        "principled",
+        "principled base_color=0.9,0.7,0.5 roughness=0.3 spec_trans=0.8 metallic=0.1 clearcoat=0.5"
+            .into(),
+        Some(1.5),
+        &BOTH_SIDES,
+        false,
+    );
+    add(
+        "principled",
+        "principled base_color=1 roughness=0.2 spec_trans=1 eta=1.33 anisotropic=0.5".into(),
+        Some(1.33),
+        &BOTH_SIDES,
+        true,
+    );
+    add(
+        "principled",
+        "principled roughness=0.05 clearcoat=1 clearcoat_gloss=0.5".into(),
+        None,
+        &OUTSIDE,
+        false,
+    );
+    add(
+        "principledthin",
+        "principledthin base_color=0.7,0.5,0.3 roughness=0.4 spec_trans=0.6 diff_trans=0.8 sheen=0.5 flatness=0.3".into(),
+        None,
+        &BOTH_SIDES,
+        false,
+    );
+    add(
+        "principledthin",
+        "principledthin base_color=1 roughness=0.2 spec_trans=1 eta=1.33 anisotropic=0.5".into(),
+        None,
+        &BOTH_SIDES,
+        true,
+    );
+    add(
+        "principledthin",
+        "principledthin base_color=0.5 roughness=0.8 diff_trans=2".into(),
+        None,
+        &BOTH_SIDES,
+        true,
+    );
     add(
         "twosided",
         "twosided { roughconductor distribution=ggx alpha=0.3 }".into(),
@@ -245,7 +305,10 @@ fn cases() -> Vec<Case> {
 
 fn direction(theta_deg: f32, model: &str) -> Vec3 {
     // off the xz-plane so that anisotropic models are tested off their axes
-    let phi: f32 = if model == "roughconductor" || model == "roughdielectric" {
+    let phi: f32 = if model == "roughconductor"
+        || model == "roughdielectric"
+        || model.starts_with("principled")
+    {
         0.5
     } else {
         0.0
@@ -373,6 +436,14 @@ fn chi2_sheen() {
     run_statistical("sheen");
 }
 #[test]
+fn chi2_principled() {
+    run_statistical("principled");
+}
+#[test]
+fn chi2_principledthin() {
+    run_statistical("principledthin");
+}
+#[test]
 fn chi2_twosided() {
     run_statistical("twosided");
 }
@@ -459,6 +530,13 @@ fn reciprocity_holds() {
     for c in cases() {
         let b = build(&c);
         if b.flags().is_all_delta() {
+            continue;
+        }
+        // Mitsuba's principledthin is not reciprocal by construction: its specular
+        // transmission about the mirror image of wo keeps a pair (wi, wo) when wi·h > 0 and
+        // wo·h < 0, conditions that are not symmetric in wi and wo (see
+        // models/principledthin.rs); its other lobes are tested below
+        if c.model == "principledthin" && c.spec.contains("spec_trans") {
             continue;
         }
         let r = check::reciprocity(&b, &sp, c.eta, 20_000, 9);
@@ -567,6 +645,10 @@ fn finite_and_nonnegative_everywhere() {
             "thindielectric int_ior=1 ext_ior=1",
             "roughplastic alpha=0 distribution=ggx",
             "sheen roughness=0",
+            "principled roughness=0 spec_trans=0.5 clearcoat=1 clearcoat_gloss=1",
+            "principled roughness=0 metallic=1 anisotropic=1",
+            "principled spec_trans=1 specular=0",
+            "principledthin roughness=0 spec_trans=0.5 diff_trans=2 eta=1",
             "roughconductor alpha=1e-4 distribution=ggx",
         ]
         .map(String::from),

@@ -47,11 +47,19 @@ impl Image {
 pub fn srgb_to_linear(v: f32) -> f32 {
     // 8-bit images (v = k/255 as decoded) through a table of the same formula: decoding a
     // texture spent most of its time in `pow`
-    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
-    let k = (v * 255.0).round();
-    if (0.0..=255.0).contains(&k) && k / 255.0 == v {
-        let table = TABLE.get_or_init(|| std::array::from_fn(|i| srgb_formula(i as f32 / 255.0)));
-        return table[k as usize];
+    struct Tables {
+        encoded: [f32; 256],
+        linear: [f32; 256],
+    }
+    static TABLES: std::sync::OnceLock<Tables> = std::sync::OnceLock::new();
+    let t = TABLES.get_or_init(|| Tables {
+        encoded: std::array::from_fn(|k| k as f32 / 255.0),
+        linear: std::array::from_fn(|k| srgb_formula(k as f32 / 255.0)),
+    });
+    // (a saturating cast: negative and NaN values give 0, which the comparison rejects)
+    let k = (v * 255.0 + 0.5) as usize;
+    if k < 256 && t.encoded[k] == v {
+        return t.linear[k];
     }
     srgb_formula(v)
 }
@@ -378,6 +386,19 @@ mod tests {
         assert_eq!(linear_to_srgb8(-1.0), 0);
         assert_eq!(linear_to_srgb8(7.0), 255);
         assert_eq!(linear_to_srgb8(f32::NAN), 0);
+    }
+
+    #[test]
+    fn srgb_table_is_the_formula() {
+        // 8-bit values (the table) and others (the formula) decode alike
+        for i in 0..=255 {
+            let e = i as f32 / 255.0;
+            assert_eq!(srgb_to_linear(e).to_bits(), srgb_formula(e).to_bits(), "{i}");
+        }
+        for v in [0.5, 0.001, 1.0 - 1e-7, 1.5, -0.25, 300.0 / 255.0, 1e-30] {
+            assert_eq!(srgb_to_linear(v).to_bits(), srgb_formula(v).to_bits(), "{v}");
+        }
+        assert!(srgb_to_linear(f32::NAN).is_nan());
     }
 
     #[test]

@@ -11,6 +11,8 @@ pub mod normalmap;
 pub mod null;
 pub mod perturbed;
 pub mod plastic;
+pub mod principled;
+pub mod principledthin;
 pub mod roughconductor;
 pub mod roughdielectric;
 pub mod roughplastic;
@@ -27,6 +29,8 @@ pub use mask::Mask;
 pub use normalmap::NormalMap;
 pub use null::Null;
 pub use plastic::Plastic;
+pub use principled::Principled;
+pub use principledthin::PrincipledThin;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
 pub use roughplastic::RoughPlastic;
@@ -52,6 +56,10 @@ pub enum Bsdf {
     Plastic(Plastic),
     RoughPlastic(Box<RoughPlastic>),
     Sheen(Sheen),
+    /// Mitsuba's `principled` (the Disney BSDF).
+    Principled(Box<Principled>),
+    /// Mitsuba's `principledthin`.
+    PrincipledThin(Box<PrincipledThin>),
     TwoSided(Box<TwoSided>),
     Blend(Box<Blend>),
     /// Mitsuba's `measured`: an RGL tensor file (Dupuy & Jakob 2018), shared between copies.
@@ -76,6 +84,8 @@ macro_rules! dispatch {
             Bsdf::Plastic($b) => $e,
             Bsdf::RoughPlastic($b) => $e,
             Bsdf::Sheen($b) => $e,
+            Bsdf::Principled($b) => $e,
+            Bsdf::PrincipledThin($b) => $e,
             Bsdf::TwoSided($b) => $e,
             Bsdf::Blend($b) => $e,
             Bsdf::Measured($b) => $e,
@@ -101,6 +111,8 @@ impl Bsdf {
             Bsdf::Plastic(_) => "plastic",
             Bsdf::RoughPlastic(_) => "roughplastic",
             Bsdf::Sheen(_) => "sheen",
+            Bsdf::Principled(_) => "principled",
+            Bsdf::PrincipledThin(_) => "principledthin",
             Bsdf::TwoSided(_) => "twosided",
             Bsdf::Blend(_) => "blendbsdf",
             Bsdf::Measured(_) => "measured",

@@ -1,0 +1,824 @@
+//! `principled`: the Disney principled BSDF (Burley 2012, "Physically Based Shading at
+//! Disney"; Burley 2015, "Extending the Disney BRDF to a BSDF with Integrated Subsurface
+//! Scattering"), with Mitsuba 3's parameters, defaults and formulas so that renders match.
+//!
+//! Parameters (all but `eta`, `specular` and the sampling rates may be textures; all default
+//! to 0 unless stated):
+//!
+//! | name | meaning |
+//! |---|---|
+//! | `base_color` | colour (default 0.5) |
+//! | `roughness` | roughness of the main specular lobes, α = roughness² (default 0.5) |
+//! | `anisotropic` | αu = r²/√(1 − 0.9 a), αv = r²·√(1 − 0.9 a), both ≥ 0.001 |
+//! | `metallic` | blends in a Schlick conductor tinted by `base_color` |
+//! | `spec_trans` | weight of the rough dielectric transmission lobe (tinted by √`base_color`) |
+//! | `specular` | Fresnel strength: η = 2/(1 − √(0.08·specular)) − 1 (default 0.5, η = 1.5) |
+//! | `eta` | the relative index directly (give either `eta` or `specular`) |
+//! | `spec_tint` | tints the dielectric reflection towards `base_color` |
+//! | `sheen`, `sheen_tint` | the retro-grazing sheen lobe and its tint |
+//! | `clearcoat`, `clearcoat_gloss` | a GTR1 coat, α = lerp(0.1, 0.001, gloss) |
+//! | `flatness` | blends the diffuse lobe with Hanrahan–Krueger-like fake subsurface |
+//! | `main_specular_sampling_rate`, `clearcoat_sampling_rate`, `diffuse_reflectance_sampling_rate` | lobe sampling weights (default 1) |
+//!
+//! The lobes (f without the cosine; ci = cosθi, co = cosθo, h the half vector):
+//! - diffuse, weight (1 − metallic)(1 − spec_trans): base/π · lerp(f_diff + f_retro, f_ss,
+//!   flatness), front side only;
+//! - sheen: sheen·(1 − metallic)·(1 − cos_d)⁵·lerp(1, tint, sheen_tint);
+//! - main specular reflection (GGX, Smith G, visible-normal sampling): F·D·G/(4|ci||co|),
+//!   with Mitsuba's blended Fresnel (exact dielectric, Schlick for the metallic and tinted
+//!   parts; from below the surface only (1 − metallic)·spec_trans times the dielectric one);
+//! - main specular transmission, weight (1 − metallic)·spec_trans: √base · Walter et al.'s
+//!   rough-dielectric transmission term (scaled by 1/η² in radiance transport);
+//! - clearcoat: 0.25·clearcoat·F_schlick(0.04)·D_GTR1·G(α = 0.25), front side only. As in
+//!   Mitsuba this lobe carries no 1/(4|ci||co|) factor.
+//!
+//! Lobes are picked with Mitsuba's probabilities (diffuse ∝ (1 − metallic)(1 − spec_trans),
+//! clearcoat ∝ clearcoat/4, main specular ∝ 1 split between reflection and transmission by
+//! the dielectric Fresnel factor of the sampled normal), so `pdf` is Mitsuba's.
+//!
+//! Deliberate differences from Mitsuba 3.9 (`scalar_rgb`):
+//! - From below the surface with no transmission weight ((1 − metallic)·spec_trans = 0 at
+//!   that point) Mitsuba's `sample` produces nothing but its `pdf` is non-zero; Specula's
+//!   `pdf` is 0 there, the density of its sampler (`eval` is 0 there in both).
+//! - The sheen lobe is added wherever its own mask holds; Mitsuba's scalar variant adds it
+//!   only where the diffuse lobe is active too, i.e. it drops the sheen at spec_trans = 1
+//!   exactly (its vectorised variants add it where any lane of the wavefront is diffuse).
+//! - The transmitted fraction 1 − F of the transmission lobe is computed from both cosines
+//!   ([`crate::fresnel::dielectric_transmittance_pair`]), as `roughdielectric` does: the same
+//!   value as Mitsuba's 1 − F, without its cancellation near total internal reflection, so
+//!   that the lobe is reciprocal to single precision.
+//! - Constant weights outside their ranges (negative roughness, metallic > 1, …) are errors;
+//!   Mitsuba accepts them and returns negative values.
+//!
+//! `multiscatter` energy compensation is not implemented: the main specular lobes are
+//! evaluated in [`Principled::spec_terms`], the one place a compensation factor would apply.
+
+use crate::bsdf::*;
+use crate::frame::{reflect, refract};
+use crate::fresnel::{dielectric_transmittance_pair, fresnel_dielectric};
+use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
+use crate::spectrum::Spectrum;
+use crate::warp;
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+#[derive(Clone, Debug)]
+pub struct Principled {
+    pub base_color: SpectrumParam,
+    pub roughness: FloatParam,
+    pub anisotropic: FloatParam,
+    pub metallic: FloatParam,
+    pub spec_trans: FloatParam,
+    pub spec_tint: FloatParam,
+    pub sheen: FloatParam,
+    pub sheen_tint: FloatParam,
+    pub flatness: FloatParam,
+    pub clearcoat: FloatParam,
+    pub clearcoat_gloss: FloatParam,
+    /// Relative index of refraction η_int/η_ext (from `eta` or `specular`).
+    pub eta: f32,
+    /// `spec_trans` was given (and is not the constant 0): the transmission lobe exists.
+    pub has_spec_trans: bool,
+    /// `clearcoat` was given (and is not the constant 0).
+    pub has_clearcoat: bool,
+    pub spec_srate: f32,
+    pub clearcoat_srate: f32,
+    pub diff_refl_srate: f32,
+}
+
+/// (1 − c)⁵ clamped, Schlick's weight.
+#[inline]
+pub(crate) fn schlick_weight(c: f32) -> f32 {
+    let m = (1.0 - c).clamp(0.0, 1.0);
+    let m2 = m * m;
+    m2 * m2 * m
+}
+
+/// ((η − 1)/(η + 1))².
+#[inline]
+pub(crate) fn schlick_r0(eta: f32) -> f32 {
+    ((eta - 1.0) / (eta + 1.0)).powi(2)
+}
+
+/// Schlick's Fresnel with normal reflectance `r0` for a cosine `c` (signed: negative from
+/// inside) and relative index `eta`; the cosine on the optically thinner side is used.
+#[inline]
+pub(crate) fn calc_schlick(r0: Spectrum, c: f32, eta: f32) -> Spectrum {
+    let eta_it = if c >= 0.0 { eta } else { 1.0 / eta };
+    let eta_ti = 1.0 / eta_it;
+    let w = if eta_it > 1.0 {
+        schlick_weight(c.abs())
+    } else {
+        let ct2 = 1.0 - (1.0 - c * c) * eta_ti * eta_ti;
+        schlick_weight(ct2.max(0.0).sqrt())
+    };
+    r0 * (1.0 - w) + Spectrum::splat(w)
+}
+
+/// Mitsuba's mapping from (anisotropic, roughness) to (αu, αv).
+#[inline]
+pub(crate) fn dist_params(anisotropic: f32, roughness: f32) -> (f32, f32) {
+    let r2 = roughness * roughness;
+    let aspect = (1.0 - 0.9 * anisotropic).sqrt();
+    ((r2 / aspect).max(0.001), (r2 * aspect).max(0.001))
+}
+
+#[inline]
+pub(crate) fn ggx(anisotropic: f32, roughness: f32) -> MicrofacetDistribution {
+    let (ax, ay) = dist_params(anisotropic, roughness);
+    MicrofacetDistribution::new(MicrofacetType::Ggx, ax, ay, true)
+}
+
+/// `base / lum`, or white when the luminance is not positive.
+#[inline]
+pub(crate) fn tint(base: Spectrum, lum: f32) -> Spectrum {
+    if lum > 0.0 {
+        base / lum
+    } else {
+        Spectrum::ONE
+    }
+}
+
+/// The diffuse, retro-reflection and fake-subsurface factor (without base/π): `ci`, `co`
+/// absolute cosines, `cos_d` = h·wo.
+#[inline]
+pub(crate) fn diffuse_factor(ci: f32, co: f32, cos_d: f32, roughness: f32, flatness: f32) -> f32 {
+    let fo = schlick_weight(co);
+    let fi = schlick_weight(ci);
+    let f_diff = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
+    let rr = 2.0 * roughness * cos_d * cos_d;
+    let f_retro = rr * (fo + fi + fo * fi * (rr - 1.0));
+    if flatness == 0.0 {
+        return f_diff + f_retro;
+    }
+    let fss90 = 0.5 * rr;
+    let fss = (1.0 + (fss90 - 1.0) * fo) * (1.0 + (fss90 - 1.0) * fi);
+    let f_ss = 1.25 * (fss * (1.0 / (co + ci) - 0.5) + 0.5);
+    (f_diff + f_retro) * (1.0 - flatness) + f_ss * flatness
+}
+
+/// The sheen colour lerp(1, base/lum, sheen_tint).
+#[inline]
+pub(crate) fn sheen_color(base: Spectrum, sheen_tint: f32) -> Spectrum {
+    if sheen_tint == 0.0 {
+        return Spectrum::ONE;
+    }
+    let c = tint(base, base.luminance());
+    Spectrum::splat(1.0 - sheen_tint) + c * sheen_tint
+}
+
+/// Mitsuba's macro/micro-surface compatibility: both directions on the side of `m` that
+/// `wi` is on (reflection), or `wo` on the opposite side (transmission).
+#[inline]
+pub(crate) fn compatible(m: Vec3, wi: Vec3, wo: Vec3, cos_i: f32, reflection: bool) -> bool {
+    let ms = if cos_i < 0.0 { -m } else { m };
+    wi.dot(ms) > 0.0
+        && if reflection {
+            wo.dot(ms) > 0.0
+        } else {
+            wo.dot(-ms) > 0.0
+        }
+}
+
+/// Burley's GTR1 distribution of the clearcoat, D(m) = (α² − 1)/(π ln(α²)(1 + (α² − 1)cos²θ)).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Gtr1 {
+    alpha: f32,
+}
+
+impl Gtr1 {
+    #[inline]
+    fn eval(&self, m: Vec3) -> f32 {
+        let a2 = self.alpha * self.alpha;
+        let c2 = m.z * m.z;
+        let d = (a2 - 1.0) / (PI * a2.ln() * (1.0 + (a2 - 1.0) * c2));
+        if d * m.z > 1e-20 {
+            d
+        } else {
+            0.0
+        }
+    }
+    #[inline]
+    fn pdf(&self, m: Vec3) -> f32 {
+        if m.z < 0.0 {
+            0.0
+        } else {
+            m.z * self.eval(m)
+        }
+    }
+    #[inline]
+    fn sample(&self, u: Vec2) -> Vec3 {
+        let (s, c) = (2.0 * PI * u.x).sin_cos();
+        let a2 = self.alpha * self.alpha;
+        let cos2 = (1.0 - a2.powf(1.0 - u.y)) / (1.0 - a2);
+        let sin_t = (1.0 - cos2).max(0.0).sqrt();
+        let cos_t = cos2.max(0.0).sqrt();
+        Vec3::new(c * sin_t, s * sin_t, cos_t)
+    }
+}
+
+/// The isotropic GGX Smith G1 of the clearcoat (Mitsuba's `smith_ggx1`).
+#[inline]
+fn smith_ggx1(v: Vec3, m: Vec3, alpha: f32) -> f32 {
+    if v.dot(m) * v.z <= 0.0 {
+        return 0.0;
+    }
+    if v.z == 1.0 {
+        return 1.0;
+    }
+    let c2 = v.z * v.z;
+    let t2 = (1.0 - c2) / c2;
+    2.0 / (1.0 + (1.0 + alpha * alpha * t2).sqrt())
+}
+
+/// The parameters looked up at one shading point.
+#[derive(Clone, Copy, Debug)]
+struct Local {
+    base: Spectrum,
+    roughness: f32,
+    anisotropic: f32,
+    metallic: f32,
+    spec_trans: f32,
+    clearcoat: f32,
+}
+
+impl Local {
+    /// Weight of the diffuse (BRDF) part.
+    #[inline]
+    fn brdf(&self) -> f32 {
+        (1.0 - self.metallic) * (1.0 - self.spec_trans)
+    }
+    /// Weight of the transmissive (BSDF) part.
+    #[inline]
+    fn bsdf(&self) -> f32 {
+        (1.0 - self.metallic) * self.spec_trans
+    }
+}
+
+/// Normalised lobe-selection probabilities (diffuse, clearcoat, transmission, reflection).
+#[derive(Clone, Copy, Debug)]
+struct Probs {
+    diffuse: f32,
+    clearcoat: f32,
+    trans: f32,
+    reflect: f32,
+}
+
+impl Principled {
+    #[inline]
+    fn local(&self, sp: &ShadingPoint) -> Local {
+        Local {
+            base: self.base_color.eval(sp),
+            roughness: self.roughness.eval(sp),
+            anisotropic: self.anisotropic.eval(sp),
+            metallic: self.metallic.eval(sp),
+            spec_trans: if self.has_spec_trans {
+                self.spec_trans.eval(sp)
+            } else {
+                0.0
+            },
+            clearcoat: if self.has_clearcoat {
+                self.clearcoat.eval(sp)
+            } else {
+                0.0
+            },
+        }
+    }
+
+    #[inline]
+    fn probs(&self, l: &Local, front: bool, f: f32) -> Probs {
+        let bsdf = l.bsdf();
+        let (mut pr, mut pt, mut pc, mut pd) = if front {
+            (
+                self.spec_srate * (1.0 - bsdf * (1.0 - f)),
+                if self.has_spec_trans {
+                    self.spec_srate * bsdf * (1.0 - f)
+                } else {
+                    0.0
+                },
+                if self.has_clearcoat {
+                    0.25 * l.clearcoat * self.clearcoat_srate
+                } else {
+                    0.0
+                },
+                l.brdf() * self.diff_refl_srate,
+            )
+        } else {
+            (f, if self.has_spec_trans { 1.0 - f } else { 0.0 }, 0.0, 0.0)
+        };
+        let total = pr + pt + pc + pd;
+        // all sampling rates 0 where every lobe is: nothing is sampled
+        let inv = if total > 0.0 { 1.0 / total } else { 0.0 };
+        pr *= inv;
+        pt *= inv;
+        pc *= inv;
+        pd *= inv;
+        Probs {
+            diffuse: pd,
+            clearcoat: pc,
+            trans: pt,
+            reflect: pr,
+        }
+    }
+
+    /// The clearcoat's GTR1 distribution at a shading point.
+    #[inline]
+    fn gtr1(&self, sp: &ShadingPoint) -> Gtr1 {
+        let g = self.clearcoat_gloss.eval(sp);
+        Gtr1 {
+            alpha: 0.1 * (1.0 - g) + 0.001 * g,
+        }
+    }
+
+    /// Mitsuba's blended Fresnel factor of the main specular reflection.
+    #[inline]
+    fn principled_fresnel(
+        &self,
+        sp: &ShadingPoint,
+        l: &Local,
+        f_diel: f32,
+        cos_h: f32,
+        front: bool,
+    ) -> Spectrum {
+        if !front {
+            return Spectrum::splat(l.bsdf() * f_diel);
+        }
+        let m = l.metallic;
+        let st = self.spec_tint.eval(sp);
+        let mut fs = Spectrum::ZERO;
+        if m != 0.0 {
+            fs += calc_schlick(l.base, cos_h, self.eta) * m;
+        }
+        if st != 0.0 {
+            let eta_it = if cos_h >= 0.0 {
+                self.eta
+            } else {
+                1.0 / self.eta
+            };
+            let r0 = tint(l.base, l.base.luminance()) * schlick_r0(eta_it);
+            fs += calc_schlick(r0, cos_h, self.eta) * ((1.0 - m) * st);
+        }
+        fs + Spectrum::splat((1.0 - m) * (1.0 - st) * f_diel)
+    }
+
+    /// The main specular lobes at a half vector: (value of the reflection or transmission
+    /// lobe without the cosine, pdf over wo of the visible-normal sampling before the lobe
+    /// probability). Where a multiple-scattering compensation would be applied.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn spec_terms<const VALUE: bool>(
+        &self,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        l: &Local,
+        distr: &MicrofacetDistribution,
+        wi: Vec3,
+        wo: Vec3,
+        wh: Vec3,
+        f_diel: f32,
+        reflect: bool,
+    ) -> (Spectrum, f32) {
+        let (ci, co) = (wi.z, wo.z);
+        let front = ci > 0.0;
+        let eta_path = if front { self.eta } else { 1.0 / self.eta };
+        let wi_up = if front { wi } else { -wi };
+        let d = distr.eval(wh);
+        let g1_i = distr.smith_g1(wi, wh);
+        let (dwi, dwo) = (wi.dot(wh), wo.dot(wh));
+        // visible-normal density of wh from wi_up (G1 is even in the direction's sign)
+        let pdf_m = d * g1_i * wi_up.dot(wh).abs() / wi_up.z;
+        if reflect {
+            let pdf = pdf_m * (1.0 / (4.0 * dwo)).abs();
+            if !VALUE || f_diel <= 0.0 {
+                return (Spectrum::ZERO, pdf);
+            }
+            let g = g1_i * distr.smith_g1(wo, wh);
+            let fp = self.principled_fresnel(sp, l, f_diel, dwi, front);
+            (fp * (d * g / (4.0 * ci.abs() * co.abs())), pdf)
+        } else {
+            let denom = dwi + eta_path * dwo;
+            let pdf = pdf_m * (eta_path * eta_path * dwo / (denom * denom)).abs();
+            let bsdf = l.bsdf();
+            if !VALUE || bsdf <= 0.0 || f_diel >= 1.0 {
+                return (Spectrum::ZERO, pdf);
+            }
+            let g = g1_i * distr.smith_g1(wo, wh);
+            let scale = match ctx.mode {
+                TransportMode::Radiance => 1.0 / (eta_path * eta_path),
+                TransportMode::Importance => 1.0,
+            };
+            let t = dielectric_transmittance_pair(dwi.abs(), dwo.abs(), eta_path);
+            let v = (scale * t * d * g * eta_path * eta_path * dwi * dwo
+                / (ci * co * denom * denom))
+                .abs();
+            (l.base.map(f32::sqrt) * (bsdf * v), pdf)
+        }
+    }
+
+    #[inline]
+    fn eval_pdf_impl<const VALUE: bool>(
+        &self,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        wo: Vec3,
+    ) -> (Spectrum, f32) {
+        let (ci, co) = (wi.z, wo.z);
+        let none = (Spectrum::ZERO, 0.0);
+        if ci == 0.0 {
+            return none;
+        }
+        let reflect = ci * co > 0.0;
+        let refract = ci * co < 0.0;
+        if !(reflect || refract && self.has_spec_trans) {
+            return none;
+        }
+        let l = self.local(sp);
+        let front = ci > 0.0;
+        if !front && l.bsdf() <= 0.0 {
+            // nothing scatters light arriving from below (see the module docs)
+            return none;
+        }
+        let eta_path = if front { self.eta } else { 1.0 / self.eta };
+        let mut wh = if reflect {
+            (wi + wo).normalize()
+        } else {
+            // in double precision, so that the pair and the swapped pair give the same half
+            // vector (reciprocity of the transmission lobe), as `roughdielectric`
+            (wi.as_dvec3() + wo.as_dvec3() * eta_path as f64)
+                .normalize()
+                .as_vec3()
+        };
+        if wh.z < 0.0 {
+            wh = -wh;
+        }
+        if !wh.is_finite() {
+            return none;
+        }
+        // for reflection wi·h = wo·h: their mean makes the value exactly symmetric in
+        // (wi, wo), which matters near the critical angle where F has a square-root singularity
+        let cos_h = if reflect {
+            0.5 * (wi.dot(wh) + wo.dot(wh))
+        } else {
+            wi.dot(wh)
+        };
+        let f_diel = fresnel_dielectric(cos_h, self.eta).r;
+        let p = self.probs(&l, front, f_diel);
+        let distr = ggx(l.anisotropic, l.roughness);
+        let mut value = Spectrum::ZERO;
+        let mut pdf = 0.0;
+        if compatible(wh, wi, wo, ci, reflect) {
+            let (v, pdf_spec) =
+                self.spec_terms::<VALUE>(ctx, sp, &l, &distr, wi, wo, wh, f_diel, reflect);
+            value += v;
+            pdf += pdf_spec * if reflect { p.reflect } else { p.trans };
+            if reflect && front && self.has_clearcoat {
+                let cc = self.gtr1(sp);
+                pdf += p.clearcoat * cc.pdf(wh) * (1.0 / (4.0 * wo.dot(wh))).abs();
+                if VALUE && l.clearcoat > 0.0 {
+                    let fcc = calc_schlick(Spectrum::splat(0.04), wi.dot(wh), self.eta)[0];
+                    let gcc = smith_ggx1(wi, wh, 0.25) * smith_ggx1(wo, wh, 0.25);
+                    value += Spectrum::splat(0.25 * l.clearcoat * fcc * cc.eval(wh) * gcc);
+                }
+            }
+        }
+        if reflect {
+            pdf += p.diffuse * warp::square_to_cosine_hemisphere_pdf(wo);
+        }
+        if VALUE && reflect && front {
+            let brdf = l.brdf();
+            let cos_d = wh.dot(wo);
+            if brdf > 0.0 {
+                let flatness = self.flatness.eval(sp);
+                let k = diffuse_factor(ci, co, cos_d, l.roughness, flatness);
+                value += l.base * (brdf * FRAC_1_PI * k);
+            }
+            let sheen = self.sheen.eval(sp);
+            if sheen > 0.0 && 1.0 - l.metallic > 0.0 {
+                let c = sheen_color(l.base, self.sheen_tint.eval(sp));
+                value += c * (sheen * (1.0 - l.metallic) * schlick_weight(cos_d.abs()));
+            }
+        }
+        (value, pdf)
+    }
+}
+
+impl BsdfModel for Principled {
+    fn flags(&self) -> LobeFlags {
+        let f = LobeFlags::DIFFUSE_REFLECTION | LobeFlags::GLOSSY_REFLECTION;
+        if self.has_spec_trans {
+            f | LobeFlags::GLOSSY_TRANSMISSION
+        } else {
+            f
+        }
+    }
+
+    fn eval(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
+        self.eval_pdf_impl::<true>(ctx, sp, wi, wo).0
+    }
+
+    fn pdf(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> f32 {
+        self.eval_pdf_impl::<false>(ctx, sp, wi, wo).1
+    }
+
+    fn eval_pdf(
+        &self,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        wo: Vec3,
+    ) -> (Spectrum, f32) {
+        self.eval_pdf_impl::<true>(ctx, sp, wi, wo)
+    }
+
+    fn sample(
+        &self,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        u1: f32,
+        u2: Vec2,
+    ) -> Option<BsdfSample> {
+        let ci = wi.z;
+        if ci == 0.0 {
+            return None;
+        }
+        let l = self.local(sp);
+        let front = ci > 0.0;
+        if !front && l.bsdf() <= 0.0 {
+            return None;
+        }
+        let wi_up = if front { wi } else { -wi };
+        let distr = ggx(l.anisotropic, l.roughness);
+        let (m, _) = distr.sample(wi_up, u2);
+        let f = fresnel_dielectric(wi.dot(m), self.eta);
+        let p = self.probs(&l, front, f.r);
+        let (wo, lobe, eta) = if u1 < p.diffuse {
+            let wo = warp::square_to_cosine_hemisphere(u2);
+            (wo, LobeFlags::DIFFUSE_REFLECTION, 1.0)
+        } else if self.has_clearcoat && u1 < p.diffuse + p.clearcoat {
+            let mc = self.gtr1(sp).sample(u2);
+            let wo = reflect(wi, mc);
+            if !compatible(mc, wi, wo, ci, true) {
+                return None;
+            }
+            (wo, LobeFlags::GLOSSY_REFLECTION, 1.0)
+        } else if self.has_spec_trans && u1 < p.diffuse + p.clearcoat + p.trans {
+            let wo = refract(wi, m, f.cos_theta_t, f.eta_ti);
+            if ci * wo.z >= 0.0 || !compatible(m, wi, wo, ci, false) {
+                return None;
+            }
+            (wo, LobeFlags::GLOSSY_TRANSMISSION, f.eta_it)
+        } else {
+            let wo = reflect(wi, m);
+            if !compatible(m, wi, wo, ci, true) {
+                return None;
+            }
+            (wo, LobeFlags::GLOSSY_REFLECTION, 1.0)
+        };
+        if ci * wo.z <= 0.0 && lobe != LobeFlags::GLOSSY_TRANSMISSION {
+            return None;
+        }
+        let (value, pdf) = self.eval_pdf_impl::<true>(ctx, sp, wi, wo);
+        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
+            return None;
+        }
+        Some(BsdfSample {
+            wo,
+            weight: value * (wo.z.abs() / pdf),
+            pdf,
+            lobe,
+            eta,
+        })
+    }
+}
+
+/// A weight that may be textured, with its constant value checked against [lo, hi], and
+/// whether it was given as anything but the constant 0 (Mitsuba's `get_flag`: lobes whose
+/// weight is absent or 0 are switched off).
+pub(crate) fn weight_param(
+    p: &crate::props::Props,
+    name: &str,
+    default: f32,
+    lo: f32,
+    hi: f32,
+) -> Result<(FloatParam, bool), crate::props::BuildError> {
+    let v = p.float_param(name, default)?;
+    if let FloatParam::Const(c) = v {
+        if !(lo..=hi).contains(&c) {
+            return Err(crate::props::BuildError::new(
+                p.loc.clone(),
+                format!("'{}': '{name}' must lie in [{lo}, {hi}], got {c}", p.plugin),
+            ));
+        }
+    }
+    let given = p.has(name) && !matches!(v, FloatParam::Const(c) if c == 0.0);
+    Ok((v, given))
+}
+
+/// A lobe sampling rate (a non-negative constant, default 1).
+pub(crate) fn sampling_rate(
+    p: &crate::props::Props,
+    name: &str,
+) -> Result<f32, crate::props::BuildError> {
+    let v = p.float(name, 1.0)?;
+    if v < 0.0 {
+        return Err(crate::props::BuildError::new(
+            p.loc.clone(),
+            format!("'{}': '{name}' must be non-negative, got {v}", p.plugin),
+        ));
+    }
+    Ok(v)
+}
+
+impl Principled {
+    /// Builds the model from its parameters (Mitsuba 3's names and defaults).
+    pub fn from_props(p: &crate::props::Props) -> Result<Self, crate::props::BuildError> {
+        use crate::props::BuildError;
+        let (roughness, _) = weight_param(p, "roughness", 0.5, 0.0, f32::MAX)?;
+        let (anisotropic, _) = weight_param(p, "anisotropic", 0.0, 0.0, 1.0)?;
+        let (metallic, _) = weight_param(p, "metallic", 0.0, 0.0, 1.0)?;
+        let (spec_trans, has_spec_trans) = weight_param(p, "spec_trans", 0.0, 0.0, 1.0)?;
+        let (spec_tint, _) = weight_param(p, "spec_tint", 0.0, 0.0, 1.0)?;
+        let (sheen, _) = weight_param(p, "sheen", 0.0, 0.0, f32::MAX)?;
+        let (sheen_tint, _) = weight_param(p, "sheen_tint", 0.0, 0.0, 1.0)?;
+        let (flatness, _) = weight_param(p, "flatness", 0.0, 0.0, 1.0)?;
+        let (clearcoat, has_clearcoat) = weight_param(p, "clearcoat", 0.0, 0.0, f32::MAX)?;
+        let (clearcoat_gloss, _) = weight_param(p, "clearcoat_gloss", 0.0, 0.0, 1.0)?;
+        let eta = if p.has("eta") {
+            if p.has("specular") {
+                return Err(BuildError::new(
+                    p.loc.clone(),
+                    "'principled': give either 'eta' or 'specular', not both (they set the same index of refraction)",
+                ));
+            }
+            let e = p.float("eta", 1.5)?;
+            if e <= 0.0 {
+                return Err(BuildError::new(
+                    p.loc.clone(),
+                    format!("'principled': 'eta' must be positive, got {e}"),
+                ));
+            }
+            // η = 1 is implausible for transmission (as Mitsuba)
+            if has_spec_trans && e == 1.0 {
+                1.001
+            } else {
+                e
+            }
+        } else {
+            let mut s = p.float("specular", 0.5)?;
+            if !(0.0..12.5).contains(&s) {
+                return Err(BuildError::new(
+                    p.loc.clone(),
+                    format!("'principled': 'specular' must lie in [0, 12.5), got {s}"),
+                ));
+            }
+            if has_spec_trans && s == 0.0 {
+                s = 1e-3;
+            }
+            2.0 / (1.0 - (0.08 * s).sqrt()) - 1.0
+        };
+        let spec_srate = sampling_rate(p, "main_specular_sampling_rate")?;
+        let clearcoat_srate = sampling_rate(p, "clearcoat_sampling_rate")?;
+        let diff_refl_srate = sampling_rate(p, "diffuse_reflectance_sampling_rate")?;
+        Ok(Principled {
+            base_color: p.spectrum("base_color", 0.5)?,
+            roughness,
+            anisotropic,
+            metallic,
+            spec_trans,
+            spec_tint,
+            sheen,
+            sheen_tint,
+            flatness,
+            clearcoat,
+            clearcoat_gloss,
+            eta,
+            has_spec_trans,
+            has_clearcoat,
+            spec_srate,
+            clearcoat_srate,
+            diff_refl_srate,
+        })
+    }
+}
+
+/// Parameters of `principled`.
+pub const PARAMS: &[&str] = &[
+    "base_color",
+    "roughness",
+    "anisotropic",
+    "metallic",
+    "spec_trans",
+    "eta",
+    "specular",
+    "spec_tint",
+    "sheen",
+    "sheen_tint",
+    "flatness",
+    "clearcoat",
+    "clearcoat_gloss",
+    "main_specular_sampling_rate",
+    "clearcoat_sampling_rate",
+    "diffuse_reflectance_sampling_rate",
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::parse_spec;
+
+    fn principled(spec: &str) -> Principled {
+        match parse_spec(spec).unwrap() {
+            crate::Bsdf::Principled(p) => *p,
+            _ => unreachable!(),
+        }
+    }
+
+    #[test]
+    fn specular_maps_to_eta() {
+        // Mitsuba: η = 2/(1 − √(0.08 specular)) − 1; the default 0.5 is η = 1.5
+        assert!((principled("principled").eta - 1.5).abs() < 1e-6);
+        let e = principled("principled specular=0.2").eta;
+        assert!((e - (2.0 / (1.0 - (0.016f32).sqrt()) - 1.0)).abs() < 1e-6);
+        assert_eq!(principled("principled eta=1.33").eta, 1.33);
+        // η = 1 and specular = 0 are implausible for transmission and nudged, as in Mitsuba
+        assert_eq!(principled("principled eta=1 spec_trans=0.5").eta, 1.001);
+        assert!(principled("principled specular=0 spec_trans=0.5").eta > 1.0);
+        assert_eq!(principled("principled specular=0").eta, 1.0);
+    }
+
+    #[test]
+    fn bad_parameters_are_errors() {
+        for (bad, what) in [
+            (
+                "principled eta=1.5 specular=0.5",
+                "either 'eta' or 'specular'",
+            ),
+            ("principled metallic=1.5", "'metallic' must lie in [0, 1]"),
+            ("principled roughness=-0.1", "'roughness'"),
+            ("principled eta=-1", "'eta' must be positive"),
+            ("principled specular=20", "'specular' must lie in"),
+            ("principled clearcoat_sampling_rate=-1", "non-negative"),
+            (
+                "principled diff_trans=0.5",
+                "unknown parameter 'diff_trans'",
+            ),
+        ] {
+            let e = parse_spec(bad).expect_err(bad).to_string();
+            assert!(e.contains(what), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn transmission_lobe_exists_only_when_given() {
+        assert!(!principled("principled").flags().has_transmission());
+        assert!(!principled("principled spec_trans=0")
+            .flags()
+            .has_transmission());
+        assert!(principled("principled spec_trans=0.3")
+            .flags()
+            .has_transmission());
+    }
+
+    /// From below a surface that transmits nothing, nothing is sampled, and the pdf is 0
+    /// (Mitsuba's is not: a deliberate difference, see the module docs).
+    #[test]
+    fn nothing_scatters_from_below_without_transmission() {
+        let ctx = BsdfContext::RADIANCE;
+        let sp = ShadingPoint::default();
+        let wi = Vec3::new(0.3, 0.1, -0.9).normalize();
+        for spec in ["principled", "principled spec_trans=0.7 metallic=1"] {
+            let b = principled(spec);
+            for wo in [Vec3::new(-0.3, 0.0, -0.95), Vec3::new(0.2, 0.3, 0.9)] {
+                let (f, p) = b.eval_pdf(&ctx, &sp, wi, wo.normalize());
+                assert_eq!((f, p), (Spectrum::ZERO, 0.0), "{spec}");
+            }
+            assert!(b.sample(&ctx, &sp, wi, 0.5, Vec2::new(0.3, 0.6)).is_none());
+        }
+        // with transmission weight, light from below reflects and refracts
+        let b = principled("principled spec_trans=0.7 roughness=0.3");
+        let wo = Vec3::new(-0.3, -0.1, -0.9).normalize();
+        assert!(b.eval_pdf(&ctx, &sp, wi, wo).1 > 0.0);
+    }
+
+    #[test]
+    fn sampled_refraction_reports_its_relative_index() {
+        let b = principled("principled spec_trans=1 roughness=0.2 eta=1.33");
+        let ctx = BsdfContext::RADIANCE;
+        let sp = ShadingPoint::default();
+        let wi = Vec3::new(0.2, 0.0, 0.98).normalize();
+        let mut seen = 0;
+        for i in 0..64 {
+            let u1 = (i as f32 + 0.5) / 64.0;
+            if let Some(s) = b.sample(&ctx, &sp, wi, u1, Vec2::new(0.37, 0.61)) {
+                if s.wo.z < 0.0 {
+                    assert_eq!(s.lobe, LobeFlags::GLOSSY_TRANSMISSION);
+                    assert!((s.eta - 1.33).abs() < 1e-6);
+                    seen += 1;
+                }
+            }
+        }
+        assert!(seen > 0);
+    }
+}

@@ -16,7 +16,9 @@
 //! **Where the medium is.** As in Mitsuba 3, extinction exists only inside the world-space
 //! bounding box of the `sigma_t` volume's `to_world([0, 1]³)`: a float or colour `sigma_t` is a
 //! `constvolume` over the unit cube [0, 1]³, not the whole interior of the shape that bounds
-//! the medium. Outside that box the medium is empty (σt = 0).
+//! the medium. Outside that box the medium is empty (σt = 0). For a rotated `to_world` the box
+//! is the axis-aligned bound of the rotated cube, and between the two a grid's wrap mode gives
+//! the values (Mitsuba 3 does the same).
 //!
 //! **Free-flight sampling** is delta tracking against the majorant σ̄ = `scale` × the largest
 //! value of the `sigma_t` volume over all channels (Mitsuba's `max()`): tentative collisions at

@@ -99,26 +99,26 @@ fn sphere_cone(g: &Geometry, x: Vec3) -> Option<(glam::DVec3, f64, f64)> {
 }
 
 /// A light sample as seen from a shading point.
-struct LightSample {
-    wi: Vec3,
-    dist: f32,
+pub(crate) struct LightSample {
+    pub(crate) wi: Vec3,
+    pub(crate) dist: f32,
     /// radiance / (solid-angle pdf · selection probability)
-    weight: Rgb,
+    pub(crate) weight: Rgb,
     /// solid-angle pdf including the light selection probability
-    pdf: f32,
-    is_delta: bool,
+    pub(crate) pdf: f32,
+    pub(crate) is_delta: bool,
 }
 
 impl Scene {
     #[inline]
-    fn light_select_pdf(&self) -> f32 {
+    pub(crate) fn light_select_pdf(&self) -> f32 {
         1.0 / self.lights.len() as f32
     }
 
     /// Solid-angle pdf that next-event estimation samples a point at `p_light` (normal `n_light`)
     /// on shape `shape` from `x`, including the light selection probability.
     #[inline]
-    fn area_light_pdf(&self, shape: u32, x: Vec3, p_light: Vec3, n_light: Vec3) -> f32 {
+    pub(crate) fn area_light_pdf(&self, shape: u32, x: Vec3, p_light: Vec3, n_light: Vec3) -> f32 {
         let g = &self.geometry[shape as usize];
         if let Some((_, _, omc)) = sphere_cone(g, x) {
             return (1.0 / (2.0 * std::f64::consts::PI * omc)) as f32 * self.light_select_pdf();
@@ -135,7 +135,7 @@ impl Scene {
     /// Samples a light, then a direction towards it, from one 2D sample: `u.x` picks the
     /// light and is rescaled to \[0, 1) for the direction (Mitsuba's sample reuse, which keeps
     /// the 2D sample stratified over each light).
-    fn sample_light(&self, x: Vec3, mut u: Vec2) -> Option<LightSample> {
+    pub(crate) fn sample_light(&self, x: Vec3, mut u: Vec2) -> Option<LightSample> {
         let n = self.lights.len();
         if n == 0 {
             return None;
@@ -1044,7 +1044,7 @@ mod tests {
                 r#"<integrator type="depth"><integrator type="path"/></integrator>"#,
                 "cannot be nested",
             ),
-            (r#"<integrator type="volpathmis"/>"#, "not supported"),
+            (r#"<integrator type="ptracer"/>"#, "not supported"),
         ] {
             let e = scene(bad, "").err().unwrap().to_string();
             assert!(e.contains(msg) && e.contains("<test>:2:"), "{e}");

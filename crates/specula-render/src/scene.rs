@@ -539,7 +539,7 @@ impl Builder {
                 }
             }
             match child.tag.as_str() {
-                "integrator" if child.plugin_type == "volpath" => {
+                "integrator" if matches!(child.plugin_type.as_str(), "volpath" | "volpathmis") => {
                     parts.media.volpath = true;
                     integrator = Integrator::Volpath(crate::volpath::settings_from_node(child)?);
                 }

@@ -11,7 +11,12 @@
 //! shows, under the box, the outline of the cube face's two triangles. `med_fog_box_lifted`
 //! (`tests/data/media`, made by `scripts/gen_media_fog_lifted_reference.py`) is the same scene
 //! with the cube 1 mm higher, with a Mitsuba reference of its own, and is judged.
-//! `SPECULA_SCENES=a,b` restricts the run to those scenes.
+//! `med_hetero_smoke` and `med_hetero_chromatic` (`tests/data/media`, scenes, `.vol` grids and
+//! references made by `scripts/gen_media_hetero_refs.py`) are `heterogeneous` media: a smoke
+//! plume (one-channel grid) lit by an area light, and a chromatic RGB grid with an RGB albedo
+//! grid, rotated by its `to_world`, lit by a spherical area light.
+//! `volpathmis_renders_match_mitsuba_references` renders the judged scenes again with
+//! `volpathmis` (see its docs). `SPECULA_SCENES=a,b` restricts the run to those scenes.
 
 use specula_render::image_io::read_image;
 use specula_render::metrics::{block8, mean_ratio, relmse, RgbImage};
@@ -42,6 +47,72 @@ fn collect(scenes: &Path, refs: &Path) -> Vec<(String, PathBuf, PathBuf, serde_j
     out
 }
 
+/// Renders `scene` at 64 spp (seed 0) and judges it against `reference_path` with Mitsuba's
+/// 64-spp figures `m`: a report row, and the failure (if any, and if `judged`).
+fn check(
+    name: &str,
+    scene: &Scene,
+    reference_path: &Path,
+    m: &serde_json::Value,
+    judged: bool,
+) -> (String, Option<String>) {
+    let opts = RenderOptions {
+        spp: 64,
+        seed: 0,
+        threads: 0,
+    };
+    let out = render(scene, &opts, &AtomicBool::new(false), &|_, _| {});
+    let (refimg, _) = read_image(reference_path).unwrap();
+    let reference = RgbImage::from(&refimg);
+    if (out.width, out.height) != (reference.width, reference.height) {
+        let msg = format!(
+            "{name}: rendered {}×{}, reference {}×{}",
+            out.width, out.height, reference.width, reference.height
+        );
+        return (msg.clone(), Some(msg));
+    }
+    let img = RgbImage {
+        width: out.width,
+        height: out.height,
+        data: out.rgb,
+    };
+    let (r, b, mr) = (
+        relmse(&img, &reference),
+        block8(&img, &reference),
+        mean_ratio(&img, &reference),
+    );
+    let m_r = m["mitsuba_64spp_relmse"].as_f64().unwrap();
+    let m_b = m["mitsuba_64spp_block8"].as_f64().unwrap();
+    let ref_spp = m["ref_spp"].as_f64().unwrap();
+    let tol = if ref_spp > 1024.0 { 0.02 } else { 0.01 };
+    let ok_mean = mr.iter().all(|v| (v - 1.0).abs() <= tol);
+    let ok_b = b <= 2.0 * m_b + 1e-5;
+    let ok_r = r <= 1.5 * m_r;
+    let verdict = match (ok_mean && ok_b && ok_r, judged) {
+        (true, _) => "ok",
+        (false, true) => "FAIL",
+        (false, false) => "differs (coplanar tie, not judged)",
+    };
+    let row = format!(
+        "{name:<24} mean [{:.4} {:.4} {:.4}]  block8 {b:.3e} (mitsuba {m_b:.3e})  relmse {r:.3e} (mitsuba {m_r:.3e})  {:.1}s  invalid {}  {verdict}",
+        mr[0],
+        mr[1],
+        mr[2],
+        out.elapsed.as_secs_f64(),
+        out.counters.invalid
+    );
+    let failure = ((verdict == "FAIL") || out.counters.invalid != 0).then(|| {
+        format!("{name}: mean {mr:?} (±{tol}), block8 {b:.3e} ≤ {:.3e}?, relmse {r:.3e} ≤ {:.3e}?, invalid samples {}", 2.0 * m_b + 1e-5, 1.5 * m_r, out.counters.invalid)
+    });
+    (row, failure)
+}
+
+fn selected(name: &str) -> bool {
+    std::env::var("SPECULA_SCENES")
+        .map(|o| o.split(',').any(|s| s == name))
+        .unwrap_or(true)
+}
+
 #[test]
 fn media_renders_match_mitsuba_references() {
     let local = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/media");
@@ -53,14 +124,11 @@ fn media_renders_match_mitsuba_references() {
     if let Some(media) = specula_testdata::shared("media/scenes") {
         scenes.extend(collect(&media, &media.parent().unwrap().join("reference")));
     }
-    let only = std::env::var("SPECULA_SCENES").ok();
     let mut failures = Vec::new();
     let mut rows = Vec::new();
     for (name, path, reference_path, m) in &scenes {
-        if let Some(o) = &only {
-            if !o.split(',').any(|s| s == name) {
-                continue;
-            }
+        if !selected(name) {
+            continue;
         }
         let scene = match Scene::load(path, &[("spp".into(), "64".into())]) {
             Ok(s) => s,
@@ -69,60 +137,71 @@ fn media_renders_match_mitsuba_references() {
                 continue;
             }
         };
-        let opts = RenderOptions {
-            spp: 64,
-            seed: 0,
-            threads: 0,
-        };
-        let out = render(&scene, &opts, &AtomicBool::new(false), &|_, _| {});
-        let (refimg, _) = read_image(reference_path).unwrap();
-        let reference = RgbImage::from(&refimg);
-        if (out.width, out.height) != (reference.width, reference.height) {
-            failures.push(format!(
-                "{name}: rendered {}×{}, reference {}×{}",
-                out.width, out.height, reference.width, reference.height
-            ));
-            continue;
-        }
-        let img = RgbImage {
-            width: out.width,
-            height: out.height,
-            data: out.rgb,
-        };
-        let (r, b, mr) = (
-            relmse(&img, &reference),
-            block8(&img, &reference),
-            mean_ratio(&img, &reference),
-        );
-        let m_r = m["mitsuba_64spp_relmse"].as_f64().unwrap();
-        let m_b = m["mitsuba_64spp_block8"].as_f64().unwrap();
-        let ref_spp = m["ref_spp"].as_f64().unwrap();
-        let tol = if ref_spp > 1024.0 { 0.02 } else { 0.01 };
-        let ok_mean = mr.iter().all(|v| (v - 1.0).abs() <= tol);
-        let ok_b = b <= 2.0 * m_b + 1e-5;
-        let ok_r = r <= 1.5 * m_r;
         let judged = !COPLANAR_TIE.contains(&name.as_str());
-        let verdict = match (ok_mean && ok_b && ok_r, judged) {
-            (true, _) => "ok",
-            (false, true) => "FAIL",
-            (false, false) => "differs (coplanar tie, not judged)",
-        };
-        rows.push(format!(
-            "{name:<24} mean [{:.4} {:.4} {:.4}]  block8 {b:.3e} (mitsuba {m_b:.3e})  relmse {r:.3e} (mitsuba {m_r:.3e})  {:.1}s  invalid {}  {verdict}",
-            mr[0],
-            mr[1],
-            mr[2],
-            out.elapsed.as_secs_f64(),
-            out.counters.invalid
-        ));
-        if (verdict == "FAIL") || out.counters.invalid != 0 {
-            failures.push(format!("{name}: mean {mr:?} (±{tol}), block8 {b:.3e} ≤ {:.3e}?, relmse {r:.3e} ≤ {:.3e}?, invalid samples {}", 2.0 * m_b + 1e-5, 1.5 * m_r, out.counters.invalid));
-        }
+        let (row, failure) = check(name, &scene, reference_path, m, judged);
+        rows.push(row);
+        failures.extend(failure);
     }
     println!("{}", rows.join("\n"));
     assert!(
         failures.is_empty(),
         "non-conforming scenes:\n{}",
+        failures.join("\n")
+    );
+}
+
+/// `volpathmis` (same expectation as `volpath`): the scenes listed in
+/// `tests/data/media/volpathmis_metrics.json`, with their integrator's type changed to
+/// `volpathmis`, against the `volpath` references and Mitsuba's own 64-spp `volpathmis` error
+/// (made by `scripts/gen_media_volpathmis_metrics.py`).
+#[test]
+fn volpathmis_renders_match_mitsuba_references() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let local = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/media");
+    let metrics: serde_json::Map<String, serde_json::Value> = serde_json::from_str(
+        &std::fs::read_to_string(local.join("volpathmis_metrics.json")).unwrap(),
+    )
+    .unwrap();
+    assert!(!metrics.is_empty());
+    let resolve = |p: &str| match p.strip_prefix("shared:") {
+        Some(rel) => specula_testdata::shared(rel),
+        None => Some(root.join(p)),
+    };
+    let mut failures = Vec::new();
+    let mut rows = Vec::new();
+    for (name, m) in &metrics {
+        if !selected(name) {
+            continue;
+        }
+        let (Some(path), Some(reference_path)) = (
+            resolve(m["scene"].as_str().unwrap()),
+            resolve(m["reference"].as_str().unwrap()),
+        ) else {
+            continue;
+        };
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(text.matches(r#"type="volpath""#).count(), 1, "{name}");
+        let text = text.replace(r#"type="volpath""#, r#"type="volpathmis""#);
+        let scene = match Scene::from_xml_str(
+            &text,
+            &path.display().to_string(),
+            path.parent().unwrap(),
+            &[("spp".into(), "64".into())],
+        ) {
+            Ok(s) => s,
+            Err(e) => {
+                failures.push(format!("{name}: does not load: {e}"));
+                continue;
+            }
+        };
+        let (row, failure) = check(name, &scene, &reference_path, m, true);
+        rows.push(row);
+        failures.extend(failure);
+    }
+    println!("volpathmis:\n{}", rows.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "non-conforming scenes (volpathmis):\n{}",
         failures.join("\n")
     );
 }

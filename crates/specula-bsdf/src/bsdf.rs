@@ -11,7 +11,7 @@
 //!   f·|cosθo|/pdf; for Dirac lobes the pdf is the discrete probability of the chosen lobe.
 //! - [`BsdfModel::pdf`] returns the solid-angle density of `sample` (0 for Dirac lobes).
 
-use crate::spectrum::Spectrum;
+use crate::spectrum::{Spectrum, Wavelengths};
 use glam::{Vec2, Vec3};
 use std::fmt;
 use std::sync::Arc;
@@ -170,6 +170,9 @@ pub struct ShadingPoint<'a> {
     pub bary: Vec2,
     /// The shape's per-primitive data, when it has any.
     pub surface: Option<&'a dyn SurfaceData>,
+    /// In spectral mode, the wavelengths (nm) that the channels of every [`Spectrum`] at this
+    /// point stand for (channel 0 is the path's hero wavelength); `None` in RGB mode.
+    pub wavelengths: Option<Wavelengths>,
 }
 
 impl Default for ShadingPoint<'_> {
@@ -183,6 +186,7 @@ impl Default for ShadingPoint<'_> {
             prim: 0,
             bary: Vec2::ZERO,
             surface: None,
+            wavelengths: None,
         }
     }
 }

@@ -30,6 +30,7 @@ pub mod props;
 pub mod quad;
 pub mod rng;
 pub mod spec;
+pub mod spectral;
 pub mod spectrum;
 pub mod warp;
 
@@ -41,4 +42,4 @@ pub use build::build_bsdf;
 pub use models::Bsdf;
 pub use props::{BuildError, Props, Value};
 pub use spec::parse_spec;
-pub use spectrum::{Rgb, Spectrum};
+pub use spectrum::{Rgb, Spectrum, Wavelengths};

@@ -9,6 +9,11 @@ use std::ops::{Add, AddAssign, Div, DivAssign, Index, Mul, MulAssign, Neg, Sub};
 /// The colour type used by every BSDF (linear sRGB for now).
 pub type Spectrum = Rgb;
 
+/// In spectral mode, the wavelengths in nanometres that the three channels of a [`Spectrum`]
+/// stand for (channel 0: the path's hero wavelength). See [`crate::spectral`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Wavelengths(pub [f32; 3]);
+
 /// A linear-sRGB triple.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Rgb(pub [f32; 3]);

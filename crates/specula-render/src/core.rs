@@ -84,6 +84,7 @@ impl SurfaceGeometry {
             prim: hit.prim,
             bary: Vec2::new(hit.u, hit.v),
             surface,
+            wavelengths: None,
         }
     }
 }

@@ -246,16 +246,16 @@ impl EnergyTable {
 
 /// ∫ g(m) D_wi(m) dm over the normals visible from `wi` (upper hemisphere), by `res`²-point
 /// Gauss–Legendre quadrature over the visible-normal sample space, in f64.
-pub fn vndf_quadrature(
+pub fn vndf_quadrature<const N: usize>(
     distr: &MicrofacetDistribution,
     wi: Vec3,
     res: usize,
-    g: impl Fn(Vec3) -> [f64; 2],
-) -> [f64; 2] {
+    g: impl Fn(Vec3) -> [f64; N],
+) -> [f64; N] {
     let mut vd = *distr;
     vd.sample_visible = true;
     let (x, w) = gauss_legendre(res);
-    let mut sum = [0.0f64; 2];
+    let mut sum = [0.0f64; N];
     for (xj, wj) in x.iter().zip(&w) {
         for (xk, wk) in x.iter().zip(&w) {
             let u = Vec2::new((0.5 * xj + 0.5) as f32, (0.5 * xk + 0.5) as f32);
@@ -264,8 +264,9 @@ pub fn vndf_quadrature(
                 MicrofacetType::Beckmann => vd.sample(wi, u).0,
             };
             let v = g(m);
-            sum[0] += v[0] * wj * wk * 0.25;
-            sum[1] += v[1] * wj * wk * 0.25;
+            for (s, v) in sum.iter_mut().zip(v) {
+                *s += v * wj * wk * 0.25;
+            }
         }
     }
     sum
@@ -353,8 +354,74 @@ pub fn dielectric_albedo(
 
 /// The albedo table of the white conductor for a distribution (computed on first use).
 pub fn conductor_table(kind: MicrofacetType) -> &'static EnergyTable {
-    static GGX: OnceLock<EnergyTable> = OnceLock::new();
-    static BECKMANN: OnceLock<EnergyTable> = OnceLock::new();
+    &conductor_tables(kind).ss[0]
+}
+
+/// The Fresnel basis function s(c) = (1 − c)⁵ (Schlick's weight).
+#[inline]
+pub fn fresnel_basis(c: f32) -> f32 {
+    let m = (1.0 - c).clamp(0.0, 1.0);
+    let m2 = m * m;
+    m2 * m2 * m
+}
+
+/// First-bounce quantities of a conductor microsurface for light from `wi`, for the two
+/// Fresnel basis functions 1 and s(c) = (1 − c)⁵ (c = wi·m): the separable single-
+/// scattering albedo ∫ D_wi F G1(ωo) (white, s), the height-correlated one
+/// ∫ D_wi F (1 + Λi)/(1 + Λi + Λo) (white, s: the walk's first order), and the first-bounce
+/// energy ∫ D_wi s.
+pub fn conductor_moments(distr: &MicrofacetDistribution, wi: Vec3, res: usize) -> [f64; 5] {
+    vndf_quadrature(distr, wi, res, |m| {
+        let c = wi.dot(m);
+        let s = fresnel_basis(c) as f64;
+        let wo = reflect(wi, m);
+        if wo.z <= 0.0 {
+            return [0.0, 0.0, 0.0, 0.0, s];
+        }
+        let g1o = distr.smith_g1(wo, m) as f64;
+        let g1i = distr.smith_g1(wi, m) as f64;
+        // escape after the first bounce, height-correlated: G2/G1(ωi) = 1/(1 + Λo/(1 + Λi))
+        let corr = if g1o > 0.0 && g1i > 0.0 {
+            g1o / (g1i + g1o - g1i * g1o)
+        } else {
+            0.0
+        };
+        [g1o, s * g1o, corr, s * corr, s]
+    })
+}
+
+/// The conductor's first-bounce tables over (α or azimuth, √μ): see [`conductor_moments`].
+#[derive(Debug, Clone)]
+pub struct ConductorTables {
+    /// Separable single-scattering albedo (the model's), for F = 1 and F = s.
+    pub ss: [EnergyTable; 2],
+    /// Height-correlated single-scattering albedo (the exact first order), F = 1 and F = s.
+    pub corr: [EnergyTable; 2],
+    /// First-bounce energy with F = s (with F = 1 it is 1).
+    pub first: EnergyTable,
+}
+
+impl ConductorTables {
+    fn from_nodes(nodes: Vec<[[f64; 5]; MU_RES]>, azimuthal: bool) -> Self {
+        let table = |k: usize| {
+            let rows = nodes
+                .iter()
+                .map(|r| std::array::from_fn(|j| r[j][k]))
+                .collect();
+            EnergyTable::from_rows_axis(rows, azimuthal)
+        };
+        ConductorTables {
+            ss: [table(0), table(1)],
+            corr: [table(2), table(3)],
+            first: table(4),
+        }
+    }
+}
+
+/// The conductor tables of a distribution over α ∈ [0, 1] (computed on first use).
+pub fn conductor_tables(kind: MicrofacetType) -> &'static ConductorTables {
+    static GGX: OnceLock<ConductorTables> = OnceLock::new();
+    static BECKMANN: OnceLock<ConductorTables> = OnceLock::new();
     let cell = match kind {
         MicrofacetType::Ggx => &GGX,
         MicrofacetType::Beckmann => &BECKMANN,
@@ -363,29 +430,28 @@ pub fn conductor_table(kind: MicrofacetType) -> &'static EnergyTable {
         let rows = parallel_rows(ALPHA_RES, |i| {
             let a = alpha_node(i, ALPHA_RES);
             let distr = MicrofacetDistribution::new(kind, a, a, true);
-            std::array::from_fn(|j| conductor_albedo(&distr, mu_node(j), quad_res(kind)))
+            std::array::from_fn(|j| conductor_moments(&distr, wi_of(mu_node(j)), quad_res(kind)))
         });
-        EnergyTable::from_rows(rows)
+        ConductorTables::from_nodes(rows, false)
     })
 }
 
 /// Azimuth nodes of a per-material anisotropic table.
 pub const PHI_RES: usize = 9;
 
-/// The white conductor's albedo table for one anisotropic roughness (α_u ≠ α_v), over
-/// (azimuth folded into [0, π/2], √μ); read with [`folded_phi`] and
-/// [`EnergyTable::e_aniso_avg`].
-pub fn conductor_table_aniso(kind: MicrofacetType, alpha_u: f32, alpha_v: f32) -> EnergyTable {
+/// The conductor tables for one anisotropic roughness (α_u ≠ α_v), over (azimuth folded
+/// into [0, π/2], √μ); read at [`folded_phi`], averaged over azimuths.
+pub fn conductor_tables_aniso(kind: MicrofacetType, alpha_u: f32, alpha_v: f32) -> ConductorTables {
     let distr = MicrofacetDistribution::new(kind, alpha_u, alpha_v, true);
     let rows = parallel_rows(PHI_RES, |i| {
         let phi = i as f32 / (PHI_RES - 1) as f32 * std::f32::consts::FRAC_PI_2;
         let (s, c) = phi.sin_cos();
         std::array::from_fn(|j| {
             let w = wi_of(mu_node(j));
-            conductor_albedo_dir(&distr, Vec3::new(w.x * c, w.x * s, w.z), quad_res(kind))
+            conductor_moments(&distr, Vec3::new(w.x * c, w.x * s, w.z), quad_res(kind))
         })
     });
-    EnergyTable::from_rows_axis(rows, true)
+    ConductorTables::from_nodes(rows, true)
 }
 
 /// The azimuth of `w` folded into [0, π/2] (the anisotropic distributions are symmetric
@@ -402,10 +468,10 @@ pub fn table_alpha(alpha_u: f32, alpha_v: f32) -> f32 {
     (alpha_u * alpha_v).max(0.0).sqrt().min(1.0)
 }
 
-/// Build everything a compensated conductor of this distribution reads (its table and the
+/// Build everything a compensated conductor of this distribution reads (its tables and the
 /// Fresnel-average rule), so that evaluation never initialises (allocates) anything.
 pub fn prepare_conductor(kind: MicrofacetType) {
-    conductor_table(kind);
+    conductor_tables(kind);
     conductor_fresnel_avg(Spectrum::splat(1.0), Spectrum::splat(1.0));
 }
 
@@ -423,17 +489,128 @@ pub fn conductor_fresnel_avg(eta: Spectrum, k: Spectrum) -> Spectrum {
     Spectrum::new(s[0], s[1], s[2])
 }
 
-/// The conductor's compensation lobe value (without cosine), given the white single-scattering
-/// albedos E(μi), E(μo), E_avg and the Fresnel average F_avg.
-#[inline]
-pub fn conductor_lobe(e_i: f32, e_o: f32, e_avg: f32, f_avg: Spectrum) -> Spectrum {
-    let miss = 1.0 - e_avg;
-    if miss <= 1e-6 {
-        return Spectrum::ZERO;
+/// A Fresnel reflectance per channel as F(c) ≈ a + b·s(c), s = (1 − c)⁵ ([`fresnel_basis`]):
+/// a = F(1), and b such that the hemispherical average 2∫F(μ)μ dμ = a + b/21 is kept. Exact
+/// for Schlick's Fresnel (b = 1 − a); for a conductor it keeps F₀ and F_avg.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FresnelFit {
+    pub a: Spectrum,
+    pub b: Spectrum,
+}
+
+impl FresnelFit {
+    /// The fit of a conductor's Fresnel reflectance (complex index η + ik) times `reflectance`.
+    pub fn conductor(eta: Spectrum, k: Spectrum, reflectance: Spectrum) -> Self {
+        let f0 = crate::fresnel::fresnel_conductor_rgb(1.0, eta, k) * reflectance;
+        let f_avg = conductor_fresnel_avg(eta, k) * reflectance;
+        FresnelFit {
+            a: f0,
+            b: (f_avg - f0) * 21.0,
+        }
     }
-    let white = (1.0 - e_i) * (1.0 - e_o) * FRAC_1_PI / miss;
-    let f_ms = f_avg * f_avg * e_avg / (Spectrum::splat(1.0) - f_avg * miss);
-    f_ms * white
+    /// Schlick's Fresnel of normal reflectance `r0` (exactly representable).
+    pub fn schlick(r0: Spectrum) -> Self {
+        FresnelFit {
+            a: r0,
+            b: Spectrum::splat(1.0) - r0,
+        }
+    }
+    /// A white perfect reflector.
+    pub const WHITE: FresnelFit = FresnelFit {
+        a: Spectrum::ONE,
+        b: Spectrum::ZERO,
+    };
+    /// The hemispherical average a + b/21.
+    #[inline]
+    pub fn avg(&self) -> Spectrum {
+        self.a + self.b * (1.0 / 21.0)
+    }
+}
+
+impl ConductorTables {
+    /// [E_ss(1), E_ss(s), E_corr(1), E_corr(s), first(s)] at coordinate `x` (α, or the folded
+    /// azimuth of an anisotropic table) and μ.
+    #[inline]
+    pub fn at(&self, x: f32, mu: f32) -> [f32; 5] {
+        [
+            self.ss[0].e(x, mu),
+            self.ss[1].e(x, mu),
+            self.corr[0].e(x, mu),
+            self.corr[1].e(x, mu),
+            self.first.e(x, mu),
+        ]
+    }
+
+    /// The hemispherical averages of the five tables at α (over azimuths for an anisotropic
+    /// table, `alpha` ignored).
+    #[inline]
+    pub fn avg(&self, alpha: f32) -> [f32; 5] {
+        let a = |t: &EnergyTable| {
+            if t.azimuthal {
+                t.e_aniso_avg()
+            } else {
+                t.e_avg(alpha)
+            }
+        };
+        [
+            a(&self.ss[0]),
+            a(&self.ss[1]),
+            a(&self.corr[0]),
+            a(&self.corr[1]),
+            a(&self.first),
+        ]
+    }
+}
+
+/// The colour of a conductor's compensation at one roughness (see the module: C(μ) per
+/// channel, and its average).
+#[derive(Clone, Copy, Debug)]
+pub struct ConductorMs {
+    fit: FresnelFit,
+    /// Energy that leaves after the second bounce per unit reaching it (per channel).
+    r2: Spectrum,
+    /// C_avg = 2∫C(μ)μ dμ.
+    avg: Spectrum,
+}
+
+impl ConductorMs {
+    /// The coefficients for the Fresnel `fit`, from the tables' averages `avg` (from
+    /// [`ConductorTables::avg`]).
+    #[inline]
+    pub fn new(avg: [f32; 5], fit: FresnelFit) -> Self {
+        // bounces after the first: each meets the average Fresnel and escapes with the
+        // probability of the (height-correlated) single-scattering albedo, E_c,avg
+        let eps = avg[2];
+        let f2 = fit.avg().map(|v| v.clamp(0.0, 1.0));
+        let r2 = (f2 * eps) / (Spectrum::ONE - f2 * (1.0 - eps)).map(|v| v.max(1e-6));
+        let mut m = ConductorMs {
+            fit,
+            r2,
+            avg: Spectrum::ZERO,
+        };
+        // the average of C is C's formula on the averaged tables (it is linear in them)
+        m.avg = m.energy(avg);
+        m
+    }
+
+    /// C(μ) from the tables at μ ([`ConductorTables::at`]): the exact first-bounce difference
+    /// E_corr − E_ss plus the energy reaching the second bounce times `r2`.
+    #[inline]
+    pub fn energy(&self, t: [f32; 5]) -> Spectrum {
+        let [s0, s5, c0, c5, f5] = t;
+        let FresnelFit { a, b } = self.fit;
+        let r2 = self.r2;
+        let white = r2 + (Spectrum::ONE - r2) * c0 - Spectrum::splat(s0);
+        let tinted = (Spectrum::ONE - r2) * c5 - Spectrum::splat(s5) + r2 * f5;
+        (a * white + b * tinted).map(|v| v.max(0.0))
+    }
+
+    /// The lobe C(μi) C(μo) / (π C_avg) (without cosine): symmetric, and integrating to C(μi).
+    #[inline]
+    pub fn lobe(&self, c_i: Spectrum, c_o: Spectrum) -> Spectrum {
+        let inv = self.avg.map(|v| if v > 1e-6 { FRAC_1_PI / v } else { 0.0 });
+        c_i * c_o * inv
+    }
 }
 
 /// Energy tables of a rough dielectric interface (one η, one distribution) from both sides.

@@ -126,6 +126,8 @@ pub struct PrincipledMs {
     pub dielectric: Option<Arc<DielectricEnergy>>,
     /// The conductor tables of a constant anisotropic roughness (the metallic part).
     pub aniso: Option<Arc<ConductorTables>>,
+    /// The metallic part's colour when `base_color` and the roughness are constant.
+    pub metal: Option<ConductorMs>,
 }
 
 /// The compensation at one shading point and incidence.
@@ -381,7 +383,7 @@ impl Principled {
         let front = wi.z > 0.0;
         let w_m = if front && l.metallic > 0.0 {
             let (t, x) = self.ms_conductor(ms, alpha, wi);
-            l.metallic * (1.0 - t.ss[0].e(x, wi.z))
+            l.metallic * (1.0 - t.e(x, wi.z))
         } else {
             0.0
         };
@@ -442,8 +444,11 @@ impl Principled {
             } else {
                 xi
             };
-            let c = ConductorMs::new(t.avg(st.alpha), FresnelFit::schlick(l.base));
-            let lobe = c.lobe(c.energy(t.at(xi, wi.z)), c.energy(t.at(xo, wo.z)));
+            let c = match ms.metal {
+                Some(c) => c,
+                None => t.ms(st.alpha, &FresnelFit::schlick(l.base)),
+            };
+            let lobe = c.lobe(c.energy(&t.at(xi, wi.z)), c.energy(&t.at(xo, wo.z)));
             v += lobe * l.metallic;
         }
         if let Some(d) = &ms.dielectric {
@@ -919,7 +924,25 @@ impl Principled {
                 }
                 _ => None,
             };
-            Some(PrincipledMs { dielectric, aniso })
+            let base = p.spectrum("base_color", 0.5)?;
+            let metal = match (&base, &roughness, &anisotropic, &aniso) {
+                (SpectrumParam::Const(b), _, _, Some(t)) => {
+                    Some(t.ms(0.0, &FresnelFit::schlick(*b)))
+                }
+                (SpectrumParam::Const(b), FloatParam::Const(r), FloatParam::Const(a), None) => {
+                    let (au, av) = dist_params(*a, *r);
+                    Some(
+                        conductor_tables(MicrofacetType::Ggx)
+                            .ms(table_alpha(au, av), &FresnelFit::schlick(*b)),
+                    )
+                }
+                _ => None,
+            };
+            Some(PrincipledMs {
+                dielectric,
+                aniso,
+                metal,
+            })
         } else {
             None
         };

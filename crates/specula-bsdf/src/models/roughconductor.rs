@@ -34,7 +34,8 @@ pub struct RoughConductor {
     /// The Fresnel fit of the compensation ([`FresnelFit::conductor`]) when `eta`, `k` and
     /// `specular_reflectance` are constant (see [`RoughConductor::with_multiscatter`]);
     /// computed per evaluation otherwise.
-    pub ms_f_avg: Option<FresnelFit>,
+    /// With it, the compensation's colour when the roughness is constant too.
+    pub ms_f_avg: Option<(FresnelFit, Option<ConductorMs>)>,
     /// The tables of a constant anisotropic roughness (built by `with_multiscatter`).
     pub ms_aniso: Option<Arc<ConductorTables>>,
 }
@@ -47,16 +48,24 @@ impl RoughConductor {
         if on {
             crate::multiscatter::prepare_conductor(self.distribution);
         }
-        self.ms_f_avg = match (&self.eta, &self.k, &self.specular_reflectance) {
-            (SpectrumParam::Const(e), SpectrumParam::Const(k), SpectrumParam::Const(s)) if on => {
-                Some(FresnelFit::conductor(*e, *k, *s))
-            }
-            _ => None,
-        };
         self.ms_aniso = match (&self.alpha_u, &self.alpha_v) {
             (FloatParam::Const(u), FloatParam::Const(v)) if on && u != v => Some(Arc::new(
                 conductor_tables_aniso(self.distribution, u.min(1.0), v.min(1.0)),
             )),
+            _ => None,
+        };
+        self.ms_f_avg = match (&self.eta, &self.k, &self.specular_reflectance) {
+            (SpectrumParam::Const(e), SpectrumParam::Const(k), SpectrumParam::Const(s)) if on => {
+                let fit = FresnelFit::conductor(*e, *k, *s);
+                let ms = match (&self.alpha_u, &self.alpha_v, &self.ms_aniso) {
+                    (_, _, Some(t)) => Some(t.ms(0.0, &fit)),
+                    (FloatParam::Const(u), FloatParam::Const(v), None) => {
+                        Some(conductor_tables(self.distribution).ms(table_alpha(*u, *v), &fit))
+                    }
+                    _ => None,
+                };
+                Some((fit, ms))
+            }
             _ => None,
         };
         self
@@ -73,17 +82,21 @@ impl RoughConductor {
                 (conductor_tables(self.distribution), a, a, a)
             }
         };
-        let (ti, to) = (t.at(xi, wi.z), t.at(xo, wo.z));
-        let ms = ConductorMs::new(t.avg(a), self.ms_fit(sp));
-        (ms.lobe(ms.energy(ti), ms.energy(to)), 1.0 - ti[0])
+        let ms = match self.ms_f_avg {
+            Some((_, Some(ms))) => ms,
+            _ => t.ms(a, &self.ms_fit(sp)),
+        };
+        let c_i = ms.energy(&t.at(xi, wi.z));
+        let c_o = ms.energy(&t.at(xo, wo.z));
+        (ms.lobe(c_i, c_o), 1.0 - t.e(xi, wi.z))
     }
 
     /// The white energy the compensation adds for `wi`: 1 − E(μi).
     #[inline]
     fn ms_white(&self, sp: &ShadingPoint, wi: Vec3) -> f32 {
         let e = match &self.ms_aniso {
-            Some(t) => t.ss[0].e(folded_phi(wi), wi.z),
-            None => conductor_tables(self.distribution).ss[0].e(
+            Some(t) => t.e(folded_phi(wi), wi.z),
+            None => conductor_tables(self.distribution).e(
                 table_alpha(self.alpha_u.eval(sp), self.alpha_v.eval(sp)),
                 wi.z,
             ),
@@ -94,7 +107,7 @@ impl RoughConductor {
     #[inline]
     fn ms_fit(&self, sp: &ShadingPoint) -> FresnelFit {
         match self.ms_f_avg {
-            Some(f) => f,
+            Some((f, _)) => f,
             None => FresnelFit::conductor(
                 self.eta.eval(sp),
                 self.k.eval(sp),

@@ -471,6 +471,7 @@ pub const WALKS_PER_NODE: usize = 4000;
 /// The coarse grid: nodes uniform in √α and in √μ.
 const WALK_RES: usize = 9;
 
+#[allow(clippy::needless_range_loop)]
 fn walk_stats(kind: MicrofacetType, alpha: f32, mu: f32, seed: u64) -> WalkStats {
     use crate::models::microsurface_walk::{MicrosurfaceWalk, WalkMaterial};
     let walk = MicrosurfaceWalk::new(
@@ -605,6 +606,7 @@ impl WalkGrid {
 
     /// Later-bounce moments at α (the μ nodes pooled with the cosine-weighted measure of
     /// incidence, 4t³dt in t = √μ, as C_avg weighs them; linear in √α between rows).
+    #[allow(clippy::needless_range_loop)]
     fn later(&self, alpha: f32) -> [f32; NB + 1] {
         let row = |i: usize| {
             let mut s = WalkStats::default();

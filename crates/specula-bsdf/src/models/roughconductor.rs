@@ -4,7 +4,9 @@
 //!
 //! Specula option `multiscatter` (default `false`, Mitsuba's model): add Kulla & Conty's
 //! energy-compensation lobe, so that a white rough conductor reflects all the light at every
-//! roughness and incidence (see [`crate::multiscatter`] for the method and its limits).
+//! roughness and incidence; its colour follows the random walk on the microsurface order by
+//! order (exact first bounce, walk statistics of the second) instead of Kulla & Conty's
+//! F_avg term (see [`crate::multiscatter`] for the method, its accuracy and its limits).
 
 use crate::bsdf::*;
 use crate::frame::reflect;

@@ -119,16 +119,31 @@ fn render_tile<S: PixelSampler>(
                 for i in 0..n {
                     // dimension 0: film position, 1: aperture (thin lens); the integrator
                     // starts at 2 whatever the camera, so that the two never share one
+                    let u_wl = scene.spectral.then(|| {
+                        sampler
+                            .start_sample(done + i as u32, crate::spectral::WAVELENGTH_DIMENSION);
+                        sampler.next_1d()
+                    });
                     sampler.start_sample(done + i as u32, 2);
-                    let l = scene.sample_differential(
-                        integrator,
-                        rays[i],
-                        differentials.then_some(&diffs[i]),
-                        hits[i].take(),
-                        sampler,
-                        &mut c,
-                        &mut aov,
-                    );
+                    let l = match u_wl {
+                        Some(u) => scene.sample_spectral(
+                            integrator,
+                            rays[i],
+                            hits[i].take(),
+                            sampler,
+                            &mut c,
+                            u,
+                        ),
+                        None => scene.sample_differential(
+                            integrator,
+                            rays[i],
+                            differentials.then_some(&diffs[i]),
+                            hits[i].take(),
+                            sampler,
+                            &mut c,
+                            &mut aov,
+                        ),
+                    };
                     c.samples += 1;
                     if l.is_finite() {
                         block.put(pos[i], l);

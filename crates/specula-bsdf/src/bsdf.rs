@@ -288,6 +288,14 @@ impl SpectrumParam {
             SpectrumParam::Spectral { rgb, .. } => *rgb,
         }
     }
+    /// The RGB value of a parameter that does not vary over the surface (a constant, or a
+    /// spectral curve's RGB-mode value); `None` for a texture.
+    pub fn rgb_constant(&self) -> Option<Spectrum> {
+        match self {
+            SpectrumParam::Const(c) | SpectrumParam::Spectral { rgb: c, .. } => Some(*c),
+            SpectrumParam::Texture(_) => None,
+        }
+    }
     pub fn is_const(&self) -> bool {
         matches!(self, SpectrumParam::Const(_))
     }

@@ -3,10 +3,14 @@
 //! `*_spectral` variants do. RGB mode stays the default and is unchanged.
 //!
 //! Per camera sample (see [`specula_bsdf::spectral`] for the pieces):
-//! 1. one uniform number (the sampler's dimension [`WAVELENGTH_DIMENSION`], apart from the
-//!    integrator's, so RGB and spectral renders share the rest of their random sequence) picks
-//!    the hero wavelength and two more rotated by a third of the sampling density's range
-//!    ([`cie::sample_wavelengths`]: Mitsuba's `sample_rgb_spectrum` density on 360…830 nm);
+//! 1. one uniform number picks the hero wavelength and two more rotated by a third of the
+//!    sampling density's range ([`cie::sample_wavelengths`]: Mitsuba's `sample_rgb_spectrum`
+//!    density on 360…830 nm). The number of a pixel's k-th sample is frac(o + k·φ⁻¹), φ the
+//!    golden ratio, o a random offset per pixel drawn from the sampler's dimension
+//!    [`WAVELENGTH_DIMENSION`] (apart from the integrator's, so RGB and spectral renders share
+//!    the rest of their random sequence): unbiased, and a pixel's samples spread evenly over
+//!    the spectrum, which keeps colour noise low with three wavelengths per path (Mitsuba
+//!    draws its four independently per sample);
 //! 2. the integrator (`path`, `direct` or `volpath`) runs unchanged with the wavelengths in
 //!    every [`specula_bsdf::ShadingPoint`]: BSDF parameters evaluate at them (RGB constants and
 //!    texels are upsampled, [`specula_bsdf::SpectrumParam`]); emitted RGB radiance (area,
@@ -24,13 +28,31 @@
 
 use crate::core::{Hit, Ray, Result, SceneError};
 use crate::integrator::{Counters, Integrator};
-use crate::sampler::Sampler;
+use crate::sampler::{PixelSampler, Sampler};
 use crate::scene::Scene;
 use specula_bsdf::spectral::{cie, upsample};
 use specula_bsdf::{Rgb, Wavelengths};
 
 /// The sampler dimension the wavelength sample is drawn from (far from the integrator's).
 pub const WAVELENGTH_DIMENSION: u32 = 0x5eec_0000;
+
+/// A pixel's random offset of its wavelength samples (drawn from the pixel's sampler at
+/// [`WAVELENGTH_DIMENSION`] before its first sample).
+#[inline]
+pub fn pixel_offset<S: PixelSampler>(sampler: &mut S) -> f64 {
+    sampler.start_sample(0, WAVELENGTH_DIMENSION);
+    sampler.next_1d() as f64
+}
+
+/// The wavelength sample of sample `sample` of a pixel with offset `offset`: a randomly
+/// shifted Kronecker (golden-ratio) sequence, so that a pixel's samples cover the spectrum
+/// evenly (each sample alone is uniform, so the estimate is unbiased; the colour noise of a
+/// few wavelengths per path falls much faster than with independent draws).
+#[inline]
+pub fn wavelength_u(offset: f64, sample: u32) -> f32 {
+    const GOLDEN: f64 = 0.618_033_988_749_894_8;
+    ((offset + sample as f64 * GOLDEN).fract() as f32).min(1.0 - f32::EPSILON)
+}
 
 /// An emitted RGB radiance (or a light sample's weight, radiance over a pdf) as seen by a
 /// path: unchanged in RGB mode (`wl` = `None`), Mitsuba's illuminant upsampling at the

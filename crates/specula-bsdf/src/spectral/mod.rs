@@ -10,3 +10,24 @@ pub mod cie;
 pub mod conductors;
 pub mod dispersion;
 pub mod upsample;
+
+/// η(λ) (`k` false) or k(λ) (`k` true) of a named conductor, as a
+/// [`crate::bsdf::SpectralCurve`] (what `conductor`/`roughconductor` with `material="Au"` etc.
+/// evaluate in spectral mode).
+#[derive(Clone, Copy, Debug)]
+pub struct NamedConductor {
+    pub c: conductors::ConductorSpectrum,
+    pub k: bool,
+}
+
+impl crate::bsdf::SpectralCurve for NamedConductor {
+    #[inline]
+    fn eval(&self, lambda: f32) -> f32 {
+        let (eta, k) = self.c.eta_k(lambda);
+        if self.k {
+            k
+        } else {
+            eta
+        }
+    }
+}

@@ -403,6 +403,16 @@ pub fn unbounded(rgb: Rgb, w: &Wavelengths) -> Spectrum {
     reflectance(rgb / s, w) * s
 }
 
+/// What a model holding RGB data (a measured BSDF's tabulated values) returns at a shading
+/// point: `rgb` in RGB mode, [`unbounded`] at the point's wavelengths in spectral mode.
+#[inline]
+pub fn at_point(rgb: Rgb, w: Option<&Wavelengths>) -> Spectrum {
+    match w {
+        None => rgb,
+        Some(w) => unbounded(rgb, w),
+    }
+}
+
 /// An emitted colour at the wavelengths `w`: s·ρ(rgb/s)·D65(λ), s = 2·max(rgb) (Mitsuba's
 /// `d65` spectrum); negative channels count as 0.
 #[inline]

@@ -39,7 +39,7 @@ use crate::geometry::Geometry;
 use crate::sampler::Sampler;
 pub use crate::scene::PathSettings;
 use crate::scene::{Light, Scene};
-use crate::spectral::emission;
+use crate::spectral::{emission, infinite_emission};
 use crate::xml::Node;
 use glam::{Vec2, Vec3};
 use specula_bsdf::{BsdfContext, BsdfModel, Rgb, Wavelengths};
@@ -108,6 +108,8 @@ pub(crate) struct LightSample {
     /// solid-angle pdf including the light selection probability
     pub(crate) pdf: f32,
     pub(crate) is_delta: bool,
+    /// Index of the sampled light in `Scene::lights`.
+    pub(crate) light: u32,
 }
 
 impl Scene {
@@ -176,6 +178,7 @@ impl Scene {
                         weight: radiance.eval_along(g, x, wi, t as f32) / pdf,
                         pdf,
                         is_delta: false,
+                        light: idx as u32,
                     });
                 }
                 let ps = g.sample_position(u);
@@ -198,6 +201,7 @@ impl Scene {
                     weight: radiance.eval(ps.uv, ps.p) / pdf,
                     pdf,
                     is_delta: false,
+                    light: idx as u32,
                 })
             }
             Light::Other(e) => {
@@ -212,6 +216,7 @@ impl Scene {
                     weight: ds.radiance / pdf,
                     pdf,
                     is_delta: ds.is_delta,
+                    light: idx as u32,
                 })
             }
         }
@@ -315,7 +320,7 @@ impl Scene {
                             if le.is_black() {
                                 continue;
                             }
-                            let le = emission(le, wl);
+                            let le = infinite_emission(e, ray.d, le, wl);
                             let w = if prev_bsdf_delta {
                                 1.0
                             } else {
@@ -379,7 +384,8 @@ impl Scene {
                             } else {
                                 mis(ls.pdf, bsdf_pdf)
                             };
-                            result += throughput * f * emission(ls.weight, wl) * (wo.z.abs() * w);
+                            result +=
+                                throughput * f * self.light_weight(&ls, wl) * (wo.z.abs() * w);
                         }
                     }
                 }
@@ -742,7 +748,7 @@ impl Scene {
                 if le.is_black() {
                     continue;
                 }
-                let le = emission(le, wl);
+                let le = infinite_emission(e, d, le, wl);
                 let w = match bsdf_pdf {
                     None => 1.0,
                     Some(p) => mis(p, e.pdf_direction(d) * self.light_select_pdf() * light_frac),
@@ -837,7 +843,7 @@ impl Scene {
             } else {
                 mis(ls.pdf * frac_lum, bsdf_pdf * frac_bsdf)
             };
-            result += f * emission(ls.weight, wl) * (wo.z.abs() * w / ne as f32);
+            result += f * self.light_weight(&ls, wl) * (wo.z.abs() * w / ne as f32);
         }
 
         // BSDF sampling

@@ -14,9 +14,10 @@
 //! 2. the integrator (`path`, `direct` or `volpath`) runs unchanged with the wavelengths in
 //!    every [`specula_bsdf::ShadingPoint`]: BSDF parameters evaluate at them (RGB constants and
 //!    texels are upsampled, [`specula_bsdf::SpectrumParam`]); emitted RGB radiance (area,
-//!    point, spot, directional, constant, envmap… — whatever an emitter returns) is converted
+//!    point, spot, directional, constant, projector — whatever an emitter returns) is converted
 //!    where the integrator receives it, by [`emission`] (Mitsuba's `d65` spectrum: an
-//!    RGB-white emitter is D65);
+//!    RGB-white emitter is D65); an `envmap` upsamples its texels and interpolates as
+//!    Mitsuba's does ([`crate::emitters::Envmap::eval_spectral`]);
 //! 3. the film receives the result developed to linear sRGB through the CIE 1931 observer
 //!    ([`cie::develop`], Mitsuba's normalisation), so reconstruction filters and the output
 //!    files are the same as in RGB mode.
@@ -27,9 +28,11 @@
 //! RGB when the scene loads and then upsampled like any RGB value.
 
 use crate::core::{Hit, Ray, Result, SceneError};
-use crate::integrator::{Counters, Integrator};
+use crate::emitters::Emitter;
+use crate::integrator::{Counters, Integrator, LightSample};
 use crate::sampler::{PixelSampler, Sampler};
-use crate::scene::Scene;
+use crate::scene::{Light, Scene};
+use glam::Vec3;
 use specula_bsdf::spectral::{cie, upsample};
 use specula_bsdf::{Rgb, Wavelengths};
 
@@ -66,7 +69,32 @@ pub fn emission(rgb: Rgb, wl: Option<&Wavelengths>) -> Rgb {
     }
 }
 
+/// An infinite emitter's radiance `le` (its RGB value along `d`) at the wavelengths: the
+/// envmap's own spectral lookup ([`crate::emitters::Envmap::eval_spectral`], as Mitsuba), any
+/// other's [`emission`].
+#[inline]
+pub fn infinite_emission(e: &Emitter, d: Vec3, le: Rgb, wl: Option<&Wavelengths>) -> Rgb {
+    match (e, wl) {
+        (_, None) => le,
+        (Emitter::Envmap(m), Some(w)) => m.eval_spectral(d, w),
+        (_, Some(w)) => upsample::illuminant(le, w),
+    }
+}
+
 impl Scene {
+    /// A light sample's weight (radiance / pdf) at the wavelengths (see
+    /// [`infinite_emission`]).
+    #[inline]
+    pub(crate) fn light_weight(&self, ls: &LightSample, wl: Option<&Wavelengths>) -> Rgb {
+        let Some(w) = wl else {
+            return ls.weight;
+        };
+        match &self.lights[ls.light as usize] {
+            Light::Other(Emitter::Envmap(m)) => m.eval_spectral(ls.wi, w) * (1.0 / ls.pdf),
+            _ => upsample::illuminant(ls.weight, w),
+        }
+    }
+
     /// Switches the scene to spectral (`true`) or RGB (`false`) rendering. Spectral mode
     /// computes the upsampling table the first time (about 3 s on two cores; once per
     /// process). Fails for integrators whose output is not radiance (`aov`, `depth`) and for

@@ -47,7 +47,7 @@ use crate::integrator::{Counters, LightSample};
 use crate::media::{is_null_bsdf, FreeFlight};
 use crate::sampler::Sampler;
 use crate::scene::{Light, PathSettings, Scene};
-use crate::spectral::emission;
+use crate::spectral::{emission, infinite_emission};
 use crate::xml::Node;
 use glam::Vec3;
 use specula_bsdf::{Bsdf, BsdfContext, BsdfModel, LobeFlags, Rgb, ShadingPoint, Wavelengths};
@@ -286,7 +286,7 @@ impl Scene {
                                 } else {
                                     mis(ls.pdf, phase.pdf(wi, ls.wi))
                                 };
-                                let lw = emission(ls.weight, wl);
+                                let lw = self.light_weight(&ls, wl);
                                 result += throughput * lw * tr * (f * w / r_u.mean());
                             }
                         } else {
@@ -320,7 +320,7 @@ impl Scene {
                             if le.is_black() {
                                 continue;
                             }
-                            let le = emission(le, wl);
+                            let le = infinite_emission(e, ray.d, le, wl);
                             let w = if count_direct {
                                 1.0
                             } else {
@@ -393,7 +393,7 @@ impl Scene {
                             } else {
                                 mis(ls.pdf, bsdf_pdf)
                             };
-                            let lw = emission(ls.weight, wl);
+                            let lw = self.light_weight(&ls, wl);
                             result += throughput * f * lw * tr * (wo.z.abs() * w / r_u.mean());
                         }
                     }

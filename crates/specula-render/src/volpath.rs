@@ -132,6 +132,7 @@ impl Scene {
     /// Transmittance from `o` along `d` over `dist` (infinite: to infinity), starting in
     /// `medium`, through `null` surfaces; zero when anything else is in the way. Heterogeneous
     /// media estimate it by ratio tracking with samples of `rng`.
+    #[allow(clippy::too_many_arguments)]
     fn vp_transmittance<S: Sampler>(
         &self,
         mut o: Vec3,

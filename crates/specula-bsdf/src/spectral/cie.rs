@@ -154,7 +154,7 @@ pub fn xyz_to_srgb(xyz: [f32; 3]) -> [f32; 3] {
     XYZ_TO_SRGB.map(|r| r[0] * xyz[0] + r[1] * xyz[1] + r[2] * xyz[2])
 }
 
-const PDF_SCALE: f32 = 0.003_939_804_2;
+const PDF_SCALE: f32 = 0.003_939_804;
 const PDF_K: f32 = 0.0072;
 const PDF_CENTRE: f32 = 538.0;
 
@@ -201,11 +201,11 @@ pub fn sample_wavelengths(u: f32) -> (crate::Wavelengths, [f32; 3]) {
 #[inline]
 pub fn develop(l: crate::Spectrum, w: &crate::Wavelengths, weight: &[f32; 3]) -> crate::Rgb {
     let mut xyz = [0.0f32; 3];
-    for i in 0..3 {
-        let v = l.0[i] * weight[i];
-        let c = xyz_bar(w.0[i]);
-        for k in 0..3 {
-            xyz[k] += c[k] * v;
+    for ((&li, &wi), &lambda) in l.0.iter().zip(weight).zip(&w.0) {
+        let v = li * wi;
+        let c = xyz_bar(lambda);
+        for (x, ck) in xyz.iter_mut().zip(c) {
+            *x += ck * v;
         }
     }
     let s = (CIE_Y_NORMALIZATION / 3.0) as f32;
@@ -220,6 +220,7 @@ pub fn monochromatic_srgb(w: f32) -> crate::Rgb {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
     use crate::rng::Pcg32;

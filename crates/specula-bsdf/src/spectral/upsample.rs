@@ -447,6 +447,7 @@ pub fn reflectance_to_rgb(f: impl Fn(f32) -> f32) -> Rgb {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
     use crate::rng::Pcg32;

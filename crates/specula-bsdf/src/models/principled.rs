@@ -126,7 +126,8 @@ pub struct PrincipledMs {
     pub dielectric: Option<Arc<DielectricEnergy>>,
     /// The conductor tables of a constant anisotropic roughness (the metallic part).
     pub aniso: Option<Arc<ConductorTables>>,
-    /// The metallic part's colour when `base_color` and the roughness are constant.
+    /// The metallic part's colour when `base_color` and the roughness are constant (RGB
+    /// mode; spectral mode evaluates `base_color` at the wavelengths).
     pub metal: Option<ConductorMs>,
 }
 
@@ -426,10 +427,12 @@ impl Principled {
 
     /// The compensation lobes' value (without cosine) for (wi, wo).
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     fn ms_value(
         &self,
         ms: &PrincipledMs,
         ctx: &BsdfContext,
+        spectral: bool,
         l: &Local,
         st: &MsState,
         wi: Vec3,
@@ -444,7 +447,7 @@ impl Principled {
             } else {
                 xi
             };
-            let c = match ms.metal {
+            let c = match ms.metal.filter(|_| !spectral) {
                 Some(c) => c,
                 None => t.ms(st.alpha, &FresnelFit::schlick(l.base)),
             };
@@ -594,7 +597,8 @@ impl Principled {
         if !VALUE {
             return (v, pdf);
         }
-        (v + self.ms_value(ms, ctx, &l, &st, wi, wo), pdf)
+        let spectral = sp.wavelengths.is_some();
+        (v + self.ms_value(ms, ctx, spectral, &l, &st, wi, wo), pdf)
     }
 
     /// Value and pdf of Mitsuba's model (single scattering).

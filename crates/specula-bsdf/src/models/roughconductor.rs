@@ -56,9 +56,14 @@ impl RoughConductor {
             )),
             _ => None,
         };
-        self.ms_f_avg = match (&self.eta, &self.k, &self.specular_reflectance) {
-            (SpectrumParam::Const(e), SpectrumParam::Const(k), SpectrumParam::Const(s)) if on => {
-                let fit = FresnelFit::conductor(*e, *k, *s);
+        // (RGB mode only; spectral mode evaluates the optical constants at the wavelengths)
+        self.ms_f_avg = match (
+            self.eta.rgb_constant(),
+            self.k.rgb_constant(),
+            &self.specular_reflectance,
+        ) {
+            (Some(e), Some(k), SpectrumParam::Const(s)) if on => {
+                let fit = FresnelFit::conductor(e, k, *s);
                 let ms = match (&self.alpha_u, &self.alpha_v, &self.ms_aniso) {
                     (_, _, Some(t)) => Some(t.ms(0.0, &fit)),
                     (FloatParam::Const(u), FloatParam::Const(v), None) => {
@@ -84,7 +89,7 @@ impl RoughConductor {
                 (conductor_tables(self.distribution), a, a, a)
             }
         };
-        let ms = match self.ms_f_avg {
+        let ms = match self.ms_f_avg.filter(|_| sp.wavelengths.is_none()) {
             Some((_, Some(ms))) => ms,
             _ => t.ms(a, &self.ms_fit(sp)),
         };
@@ -108,7 +113,7 @@ impl RoughConductor {
 
     #[inline]
     fn ms_fit(&self, sp: &ShadingPoint) -> FresnelFit {
-        match self.ms_f_avg {
+        match self.ms_f_avg.filter(|_| sp.wavelengths.is_none()) {
             Some((f, _)) => f,
             None => FresnelFit::conductor(
                 self.eta.eval(sp),

@@ -25,13 +25,15 @@ JIT compilation is excluded too; the best of `--mitsuba-repeat` timed renders), 
 of that image printed beside it as a check. It needs libLLVM: DRJIT_LIBLLVM_PATH, or
 /usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 (`apt-get install libllvm19`) when the variable is unset.
 
-ratio = Specula's time to equal error / Mitsuba's 64-spp render time (target ≤ 0.5).
+ratio = Specula's time to equal error / Mitsuba's 64-spp render time (target ≤ 0.5). The machine
+this runs on may be shared: `cpu ratio` is the same ratio with CPU seconds (user + system, all
+threads: Specula's whole process, Mitsuba's render call), which other processes disturb less.
 
 Importable: `time_to_equal_error(scene, sampler, ...) -> dict` (see its docstring) and
 `mitsuba_time(scene, spp) -> dict`; `relmse(img, ref)` and `read_exr(path)` as well.
 SPECULA_EXE overrides the path of the `specula` binary (default: target/release/specula).
 """
-import argparse, json, math, os, pathlib, subprocess, sys, tempfile, time
+import argparse, json, math, os, pathlib, resource, subprocess, sys, tempfile, time
 
 import numpy as np
 
@@ -74,8 +76,14 @@ def reference(scene):
     return ref, metrics
 
 
-def specula_run(scene, sampler, spp, seed, threads=0, out=None):
-    """(whole-process seconds, image) of one `specula render`."""
+def _children_cpu():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def specula_run(scene, sampler, spp, seed, threads=0, out=None, cpu=None):
+    """(whole-process seconds, image) of one `specula render`; with `cpu` a list, the
+    process's CPU seconds (user + system, all threads) are appended to it."""
     exe = os.environ.get("SPECULA_EXE") or str(root / "target" / "release" / "specula")
     tmp = None
     if out is None:
@@ -86,9 +94,12 @@ def specula_run(scene, sampler, spp, seed, threads=0, out=None):
            "--seed", str(seed), "--threads", str(threads), "--quiet", "-o", out]
     if sampler:
         cmd += ["--sampler", sampler]
+    c = _children_cpu()
     t = time.perf_counter()
     r = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.perf_counter() - t
+    if cpu is not None:
+        cpu.append(_children_cpu() - c)
     if r.returncode != 0:
         raise RuntimeError(f"specula failed on {scene}: {r.stderr.strip()}")
     img = read_exr(out)
@@ -120,49 +131,53 @@ def time_to_equal_error(scene, sampler="sobol", spps=(4, 8, 16, 32, 64), seeds=(
     """Specula's wall time to reach `target` relMSE (default: Mitsuba's 64-spp figure from
     metrics.json) on `scene` with `sampler` (None: the scene's own).
 
-    Returns a dict: scene, sampler, target, points = [{spp, time (s, best over seeds),
-    relmse (mean over seeds)}], time (s) and spp at the target (log-log interpolation),
-    extrapolated (bool).
+    Returns a dict: scene, sampler, target, points = [{spp, time (wall s, best over seeds),
+    cpu (CPU s of the process, best over seeds), relmse (mean over seeds)}], time, cpu (s) and
+    spp at the target (log-log interpolation), extrapolated (bool).
     """
     ref, metrics = reference(scene)
     if target is None:
         target = metrics["mitsuba_64spp_relmse"]
     points = []
     for spp in spps:
-        times, errs = [], []
+        times, cpus, errs = [], [], []
         for seed in seeds:
-            t, img = specula_run(scene, sampler, spp, seed, threads)
+            t, img = specula_run(scene, sampler, spp, seed, threads, cpu=cpus)
             times.append(t)
             errs.append(relmse(img, ref))
-        p = {"spp": spp, "time": min(times), "relmse": sum(errs) / len(errs)}
+        p = {"spp": spp, "time": min(times), "cpu": min(cpus), "relmse": sum(errs) / len(errs)}
         points.append(p)
         if log:
-            log(f"  {scene} {sampler or 'scene'} {spp:>5} spp: {p['time']:7.3f} s, "
-                f"relMSE {p['relmse']:.3e}")
-    t, ext = _loglog([p["time"] for p in points], [p["relmse"] for p in points], target)
-    n, _ = _loglog([p["spp"] for p in points], [p["relmse"] for p in points], target)
+            log(f"  {scene} {sampler or 'scene'} {spp:>5} spp: {p['time']:7.3f} s "
+                f"(cpu {p['cpu']:.3f} s), relMSE {p['relmse']:.3e}")
+    errs = [p["relmse"] for p in points]
+    t, ext = _loglog([p["time"] for p in points], errs, target)
+    c, _ = _loglog([p["cpu"] for p in points], errs, target)
+    n, _ = _loglog([p["spp"] for p in points], errs, target)
     return {"scene": scene, "sampler": sampler or "scene", "target": target, "points": points,
-            "time": t, "spp": n, "extrapolated": ext}
+            "time": t, "cpu": c, "spp": n, "extrapolated": ext}
 
 
 def mitsuba_time(scene, spp=64, repeat=1, warm_seed=7, seed=1):
     """Mitsuba llvm_ad_rgb's render-call time at `spp` (kernels compiled by a first, untimed
-    render at the same spp), run in a subprocess. Returns {time, relmse} or {error}."""
+    render at the same spp), run in a subprocess. Returns {time (wall s), cpu (CPU s of the
+    render call, all threads), relmse} or {error}."""
     code = f"""
 import json, time, numpy as np, mitsuba as mi, drjit as dr
 mi.set_variant('llvm_ad_rgb')
 s = mi.load_file({str(shared / 'scenes' / f'{scene}.xml')!r}, spp={spp})
 img = mi.render(s, spp={spp}, seed={warm_seed}); dr.eval(img); dr.sync_thread()
-best = None
+best = cpu = None
 for k in range({repeat}):
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     img = mi.render(s, spp={spp}, seed={seed} + k)
     dr.eval(img); dr.sync_thread()
-    dt = time.perf_counter() - t
+    dt, dc = time.perf_counter() - t, time.process_time() - c
     best = dt if best is None else min(best, dt)
+    cpu = dc if cpu is None else min(cpu, dc)
     if k == 0:
         first = np.array(img, dtype=np.float64)
-print(json.dumps({{'time': best}}))
+print(json.dumps({{'time': best, 'cpu': cpu}}))
 np.save({str(pathlib.Path(tempfile.gettempdir()) / f'tte_mi_{scene}.npy')!r}, first)
 """
     env = dict(os.environ)
@@ -207,17 +222,18 @@ def main():
                                     a.threads, log=log)
             r["mitsuba"] = mi
             results.append(r)
-    print(f"{'scene':<18} {'sampler':<12} {'target relMSE':>13} {'mi llvm 64spp':>13} "
-          f"{'mi relMSE':>10} {'specula spp':>11} {'specula s':>10} {'ratio':>7}")
+    print(f"{'scene':<18} {'sampler':<12} {'target':>9} {'mi 64spp':>9} {'mi relMSE':>9} "
+          f"{'spp':>7} {'specula':>9} {'ratio':>6} {'cpu ratio':>9}")
     for r in results:
         mi = r["mitsuba"]
-        mt = mi.get("time")
+        mt, mc = mi.get("time"), mi.get("cpu")
         ext = "~" if r["extrapolated"] else " "
         ratio = r["time"] / mt if mt else float("nan")
-        print(f"{r['scene']:<18} {r['sampler']:<12} {r['target']:>13.3e} "
-              f"{(f'{mt:.3f} s' if mt else 'n/a'):>13} "
-              f"{(format(mi['relmse'], '.3e') if 'relmse' in mi else 'n/a'):>10} "
-              f"{ext}{r['spp']:>10.1f} {ext}{r['time']:>8.3f} s {ratio:>7.2f}")
+        cratio = r["cpu"] / mc if mc else float("nan")
+        print(f"{r['scene']:<18} {r['sampler']:<12} {r['target']:>9.3e} "
+              f"{(f'{mt:.3f} s' if mt else 'n/a'):>9} "
+              f"{(format(mi['relmse'], '.3e') if 'relmse' in mi else 'n/a'):>9} "
+              f"{ext}{r['spp']:>6.1f} {ext}{r['time']:>6.3f} s {ratio:>6.2f} {cratio:>9.2f}")
     if a.json:
         pathlib.Path(a.json).write_text(json.dumps(results, indent=1))
 

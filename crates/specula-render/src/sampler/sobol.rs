@@ -25,7 +25,7 @@
 //! no rounding of the sample count is needed.
 
 use super::ldsampler::sobol_2;
-use super::{hash2, pixel_seed, u32_to_unit, PixelSampler, Sampler, SamplerSettings};
+use super::{pixel_seed, u32_to_unit, PixelSampler, Sampler, SamplerSettings};
 use glam::Vec2;
 
 /// The dimensions of the 4D block: (sampler dimension, first Sobol dimension).
@@ -121,7 +121,8 @@ pub fn owen_scramble(x: u32, seed: u32) -> u32 {
 
 pub struct Sobol {
     seed: u64,
-    pixel_seed: u32,
+    /// the current pixel's 64-bit hash
+    pixel_seed: u64,
     sample: u32,
     dim: u32,
     /// 2^bits − 1 with 2^bits ≥ the sample count
@@ -130,7 +131,19 @@ pub struct Sobol {
     block_index: u32,
 }
 
+/// Dimension key of the 4D block's index shuffle (no sampler dimension reaches it).
+const BLOCK_KEY: u32 = u32::MAX;
+
 impl Sobol {
+    /// Three 32-bit seeds for dimension `d` of the current pixel (index shuffle, first and
+    /// second coordinate) from one 64-bit hash.
+    #[inline]
+    fn seeds(&self, d: u32) -> (u32, u32, u32) {
+        let z = pixel_seed(self.pixel_seed, d as u64);
+        let (lo, hi) = (z as u32, (z >> 32) as u32);
+        (lo, hi, lo ^ hi.rotate_left(13))
+    }
+
     /// The index of sample `i` in a pixel's sequence, shuffled by `seed`: bit b of the result
     /// depends on the bits ≥ b of `i` (the index's bits scrambled as a fraction's), so indices
     /// below 2^m map onto one aligned block of 2^m. For the pixel's samples the bits above the
@@ -146,32 +159,41 @@ impl Sobol {
         }
     }
 
-    /// (shuffled index, first Sobol dimension, seed) of the next dimension.
+    /// (shuffled index, first Sobol dimension, value seeds) of the next dimension.
     #[inline]
-    fn next(&mut self) -> (u32, usize, u32) {
+    fn next(&mut self) -> (u32, usize, u32, u32) {
         let d = self.dim;
         self.dim += 1;
-        let h = hash2(self.pixel_seed, d);
+        let (shuffle, sx, sy) = self.seeds(d);
         match BLOCK.iter().find(|b| b.0 == d) {
-            Some(&(_, j)) => (self.block_index, j, h),
-            None => (self.shuffle(self.sample, h), 0, h),
+            Some(&(_, j)) => (self.block_index, j, sx, sy),
+            None => (self.shuffle(self.sample, shuffle), 0, sx, sy),
         }
     }
+}
+
+/// Owen-scrambled Sobol dimension `j` at index `i` as a float in [0, 1).
+#[inline]
+fn value(j: usize, i: u32, seed: u32) -> f32 {
+    let x = if j == 0 {
+        // van der Corput is the reversed index: reverse(LK(reverse(reverse(i)))) saves two
+        laine_karras(i, seed).reverse_bits()
+    } else {
+        owen_scramble(sobol(j, i), seed)
+    };
+    u32_to_unit(x)
 }
 
 impl Sampler for Sobol {
     #[inline]
     fn next_1d(&mut self) -> f32 {
-        let (i, j, h) = self.next();
-        u32_to_unit(owen_scramble(sobol(j, i), hash2(h, 0xa511e9b3)))
+        let (i, j, sx, _) = self.next();
+        value(j, i, sx)
     }
     #[inline]
     fn next_2d(&mut self) -> Vec2 {
-        let (i, j, h) = self.next();
-        Vec2::new(
-            u32_to_unit(owen_scramble(sobol(j, i), hash2(h, 0x63d83595))),
-            u32_to_unit(owen_scramble(sobol(j + 1, i), hash2(h, 0x8f0ad3d7))),
-        )
+        let (i, j, sx, sy) = self.next();
+        Vec2::new(value(j, i, sx), value(j + 1, i, sy))
     }
 }
 
@@ -188,14 +210,14 @@ impl PixelSampler for Sobol {
         }
     }
     fn start_pixel(&mut self, pixel: u64) {
-        self.pixel_seed = (pixel_seed(self.seed, pixel) >> 32) as u32;
+        self.pixel_seed = pixel_seed(self.seed, pixel);
     }
     #[inline]
     fn start_sample(&mut self, sample: u32, dimension: u32) {
         self.sample = sample;
         self.dim = dimension;
         if dimension <= BLOCK[1].0 {
-            self.block_index = self.shuffle(sample, hash2(self.pixel_seed, 0xc0ff_ee00));
+            self.block_index = self.shuffle(sample, self.seeds(BLOCK_KEY).0);
         }
     }
 }
@@ -249,14 +271,11 @@ mod tests {
             }
         }
         // the table and the byte-table fast paths of dimensions 0 and 1 agree
-        for j in 0..2 {
+        for (j, matrix) in MATRICES.iter().enumerate().take(2) {
             for i in [1u32, 2, 3, 77, 1000, 65535, 0xdead_beef] {
-                let mut r = 0;
-                for k in 0..32 {
-                    if i >> k & 1 != 0 {
-                        r ^= MATRICES[j][k];
-                    }
-                }
+                let r = (0..32)
+                    .filter(|k| i >> k & 1 != 0)
+                    .fold(0, |r, k| r ^ matrix[k]);
                 assert_eq!(sobol(j, i), r);
             }
         }

@@ -90,7 +90,7 @@ fn sphere_cone(g: &Geometry, x: Vec3) -> Option<(Vec3, f32, f32)> {
     let to_c = sph.center - x;
     let d2 = to_c.length_squared();
     let r2 = sph.radius * sph.radius;
-    if !(d2 > r2 * (1.0 + 1e-6)) || !d2.is_finite() {
+    if d2 <= r2 * (1.0 + 1e-6) || !d2.is_finite() {
         return None;
     }
     let dist = d2.sqrt();

@@ -244,31 +244,69 @@ impl ImageBlock {
             return;
         }
         let nx = (x1 - x0 + 1) as usize;
-        let mut wx = [0f32; MAX_TAPS];
-        let cached = nx <= MAX_TAPS;
-        if cached {
-            for (i, w) in wx.iter_mut().take(nx).enumerate() {
-                *w = self.filter.eval((x0 + i as i64) as f32 - px);
+        let ny = (y1 - y0 + 1) as usize;
+        let taps = (px, py, x0 as usize, y0 as usize, nx, ny);
+        if nx <= 8 && ny <= 8 {
+            // the common case (Gaussians up to σ = 0.875): small arrays to clear
+            self.put_taps::<8>(taps, value);
+        } else if nx <= MAX_TAPS && ny <= MAX_TAPS {
+            self.put_taps::<MAX_TAPS>(taps, value);
+        } else {
+            self.put_wide(px, py, (x0, y0, x1, y1), value);
+        }
+    }
+
+    /// Splats `value` at (`px`, `py`) (relative to the stored pixel centres) into the
+    /// `nx` × `ny` ≤ `N` × `N` stored pixels from (`x0`, `y0`): the weights of both axes
+    /// first (independent polynomial evaluations), then the rows, with one bounds check per
+    /// row. A zero weight adds nothing, so it is not skipped.
+    #[inline(always)]
+    fn put_taps<const N: usize>(
+        &mut self,
+        (px, py, x0, y0, nx, ny): (f32, f32, usize, usize, usize, usize),
+        value: Rgb,
+    ) {
+        let ew = self.stored_size().0;
+        let mut wx = [0f32; N];
+        let mut wy = [0f32; N];
+        for (i, w) in wx[..nx].iter_mut().enumerate() {
+            *w = self.filter.eval((x0 + i) as f32 - px);
+        }
+        for (i, w) in wy[..ny].iter_mut().enumerate() {
+            *w = self.filter.eval((y0 + i) as f32 - py);
+        }
+        for (k, &wy) in wy[..ny].iter().enumerate() {
+            if wy == 0.0 {
+                continue;
+            }
+            let row = (y0 + k) * ew + x0;
+            let sums = &mut self.sum[3 * row..3 * (row + nx)];
+            let weights = &mut self.weight[row..row + nx];
+            for ((s, wt), &w) in sums.chunks_exact_mut(3).zip(weights).zip(&wx[..nx]) {
+                let w = w * wy;
+                s[0] += value.0[0] * w;
+                s[1] += value.0[1] * w;
+                s[2] += value.0[2] * w;
+                *wt += w;
             }
         }
+    }
+
+    /// [`ImageBlock::put`] for filters wider than [`MAX_TAPS`] pixels: weights evaluated as
+    /// they are used.
+    #[cold]
+    fn put_wide(&mut self, px: f32, py: f32, (x0, y0, x1, y1): (i64, i64, i64, i64), value: Rgb) {
+        let ew = self.stored_size().0;
         for y in y0..=y1 {
             let wy = self.filter.eval(y as f32 - py);
             if wy == 0.0 {
                 continue;
             }
-            let row = y as usize * ew + x0 as usize;
-            if cached {
-                for (i, &w) in wx[..nx].iter().enumerate() {
-                    if w != 0.0 {
-                        self.add(row + i, value, w * wy);
-                    }
-                }
-            } else {
-                for i in 0..nx {
-                    let w = self.filter.eval((x0 + i as i64) as f32 - px);
-                    if w != 0.0 {
-                        self.add(row + i, value, w * wy);
-                    }
+            let row = y as usize * ew;
+            for x in x0..=x1 {
+                let w = self.filter.eval(x as f32 - px);
+                if w != 0.0 {
+                    self.add(row + x as usize, value, w * wy);
                 }
             }
         }

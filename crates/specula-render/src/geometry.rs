@@ -98,6 +98,20 @@ pub struct TriMesh {
     area: f32,
     /// Set for rectangles, which are sampled analytically like Mitsuba's.
     rect: Option<RectSampling>,
+    /// Per-triangle constant surface data of the built-in flat-faced meshes (rectangle,
+    /// cube), whose vertex normals equal the face normal and whose uvs are affine on each
+    /// face: the hit then only interpolates p and uv (see [`TriMesh::precompute_flat`]).
+    flat: Option<Box<[FlatFace]>>,
+}
+
+/// What [`TriMesh::surface`] computes for one triangle of a flat-faced mesh that does not
+/// depend on the point hit.
+#[derive(Clone, Copy, Debug)]
+struct FlatFace {
+    n_geo: Vec3,
+    sh_frame: Frame,
+    dp_du: Vec3,
+    dp_dv: Vec3,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -344,6 +358,7 @@ impl Geometry {
             to_world,
             n: if flip_normals { -n } else { n },
         });
+        mesh.precompute_flat();
         Geometry::Mesh(mesh)
     }
 
@@ -383,13 +398,9 @@ impl Geometry {
                 [[b, b + 1, b + 2], [b + 3, b, b + 2]]
             })
             .collect();
-        Geometry::Mesh(TriMesh::new(
-            positions,
-            Some(normals),
-            Some(uvs),
-            indices,
-            flip_normals,
-        ))
+        let mut mesh = TriMesh::new(positions, Some(normals), Some(uvs), indices, flip_normals);
+        mesh.precompute_flat();
+        Geometry::Mesh(mesh)
     }
 
     /// Mitsuba's `disk`: the unit disk at z = 0, normal +z (analytic; any affine `to_world`).
@@ -620,7 +631,37 @@ impl TriMesh {
             valid: (first.min(last), last),
             area: sum as f32,
             rect: None,
+            flat: None,
         }
+    }
+
+    /// Fills [`TriMesh::flat`] for a mesh whose every face is flat (vertex normals equal to
+    /// the face normal, uvs affine over each triangle: `rectangle` and `cube`), evaluating
+    /// the general [`TriMesh::surface`] once per triangle at its centroid. The general
+    /// path's geometric normal, ∂p/∂u and ∂p/∂v depend on the triangle only, and its
+    /// shading normal (the interpolated vertex normals, all equal) differs from the one
+    /// stored by rounding only, so hits see the same geometry.
+    fn precompute_flat(&mut self) {
+        self.flat = None;
+        let faces = (0..self.indices.len())
+            .map(|i| {
+                let sg = self.surface(&Hit {
+                    t: 0.0,
+                    shape: 0,
+                    prim: i as u32,
+                    u: 1.0 / 3.0,
+                    v: 1.0 / 3.0,
+                    vertices: None,
+                });
+                FlatFace {
+                    n_geo: sg.n_geo,
+                    sh_frame: sg.sh_frame,
+                    dp_du: sg.dp_du,
+                    dp_dv: sg.dp_dv,
+                }
+            })
+            .collect();
+        self.flat = Some(faces);
     }
 
     #[inline]
@@ -698,6 +739,18 @@ impl TriMesh {
         let dp0 = p1 - p0;
         let dp1 = p2 - p0;
         let p = p2 * b2 + (p1 * b1 + p0 * b0);
+        if let (Some(flat), Some(uvs)) = (&self.flat, &self.uvs) {
+            let f = &flat[tri];
+            let [i0, i1, i2] = self.indices[tri].map(|k| k as usize);
+            return SurfaceGeometry {
+                p,
+                n_geo: f.n_geo,
+                sh_frame: f.sh_frame,
+                uv: uvs[i2] * b2 + (uvs[i1] * b1 + uvs[i0] * b0),
+                dp_du: f.dp_du,
+                dp_dv: f.dp_dv,
+            };
+        }
         let mut n = dp0.cross(dp1).normalize_or_zero();
         let index = || self.indices[tri].map(|k| k as usize);
         let (uv, dp_du, dp_dv) = match &self.uvs {
@@ -2952,6 +3005,46 @@ end_header
             RECT_MIRROR,
         );
         check_samples("rect", &Geometry::rectangle(nonuni(), false), S_RECT);
+    }
+
+    /// The flat-face shortcut of `rectangle` and `cube` gives the general mesh path's
+    /// surface (the same p, uv, n_geo, ∂p/∂u, ∂p/∂v; the shading frame within rounding).
+    #[test]
+    fn flat_faces_match_general_surface() {
+        let shapes = [
+            Geometry::rectangle(nonuni(), false),
+            Geometry::rectangle(mirror(), true),
+            Geometry::cube(nonuni(), false),
+            Geometry::cube(mirror(), true),
+        ];
+        for g in shapes {
+            let Geometry::Mesh(fast) = g else { panic!() };
+            assert!(fast.flat.is_some());
+            let mut general = fast.clone();
+            general.flat = None;
+            for prim in 0..fast.indices.len() as u32 {
+                for (u, v) in [(0.1, 0.2), (0.7, 0.25), (0.0, 1.0), (0.3, 0.3)] {
+                    let hit = Hit {
+                        t: 1.0,
+                        shape: 0,
+                        prim,
+                        u,
+                        v,
+                        vertices: None,
+                    };
+                    let (a, b) = (fast.surface(&hit), general.surface(&hit));
+                    assert_eq!((a.p, a.uv, a.n_geo), (b.p, b.uv, b.n_geo));
+                    assert_eq!((a.dp_du, a.dp_dv), (b.dp_du, b.dp_dv));
+                    for (x, y) in [
+                        (a.sh_frame.n, b.sh_frame.n),
+                        (a.sh_frame.s, b.sh_frame.s),
+                        (a.sh_frame.t, b.sh_frame.t),
+                    ] {
+                        assert!((x - y).abs().max_element() < 1e-6, "{x} vs {y}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

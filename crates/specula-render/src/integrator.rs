@@ -77,23 +77,25 @@ fn mis(a: f32, b: f32) -> f32 {
 
 /// The cone of directions a sphere subtends from an outside point: (unit axis, distance to the
 /// centre, 1 − cosθmax). `None` from inside (or on) the sphere, or for inward-facing spheres,
-/// where uniform area sampling is used instead.
+/// where uniform area sampling is used instead. In f32 as Mitsuba's `Sphere::sample_direction`
+/// (1 − cosθmax is formed without cancellation, so tiny or distant spheres keep a finite,
+/// accurate pdf).
 #[inline]
-fn sphere_cone(g: &Geometry, x: Vec3) -> Option<(glam::DVec3, f64, f64)> {
+fn sphere_cone(g: &Geometry, x: Vec3) -> Option<(Vec3, f32, f32)> {
     let Geometry::Sphere(sph) = g else {
         return None;
     };
     if sph.flip_normals {
         return None;
     }
-    let to_c = sph.center.as_dvec3() - x.as_dvec3();
+    let to_c = sph.center - x;
     let d2 = to_c.length_squared();
-    let r = sph.radius as f64;
-    if d2 <= r * r * (1.0 + 1e-6) {
+    let r2 = sph.radius * sph.radius;
+    if d2 <= r2 * (1.0 + 1e-6) || !d2.is_finite() {
         return None;
     }
     let dist = d2.sqrt();
-    let sin2 = r * r / d2;
+    let sin2 = r2 / d2;
     // 1 − cos without cancellation for small spheres
     let one_minus_cos = sin2 / (1.0 + (1.0 - sin2).sqrt());
     Some((to_c / dist, dist, one_minus_cos))
@@ -124,7 +126,7 @@ impl Scene {
     pub(crate) fn area_light_pdf(&self, shape: u32, x: Vec3, p_light: Vec3, n_light: Vec3) -> f32 {
         let g = &self.geometry[shape as usize];
         if let Some((_, _, omc)) = sphere_cone(g, x) {
-            return (1.0 / (2.0 * std::f64::consts::PI * omc)) as f32 * self.light_select_pdf();
+            return 1.0 / (2.0 * std::f32::consts::PI * omc) * self.light_select_pdf();
         }
         let d = p_light - x;
         let dist2 = d.length_squared();
@@ -152,30 +154,29 @@ impl Scene {
                 if let (Some((axis, dist_c, omc)), Geometry::Sphere(sph)) = (sphere_cone(g, x), g) {
                     // uniform over the cone of directions the sphere subtends (as Mitsuba)
                     // with a = 1 − cosθ: sin²θ = a(2 − a), free of cancellation
-                    let a = u.x as f64 * omc;
+                    let a = u.x * omc;
                     let cos_t = 1.0 - a;
-                    let sin_t = (a * (2.0 - a)).max(0.0).sqrt();
-                    let phi = 2.0 * std::f64::consts::PI * u.y as f64;
-                    let f = specula_bsdf::frame::Frame::from_normal(axis.as_vec3());
-                    let local = glam::DVec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
-                    let d = (f.s.as_dvec3() * local.x
-                        + f.t.as_dvec3() * local.y
-                        + f.n.as_dvec3() * local.z)
-                        .normalize();
-                    // nearest intersection with the sphere along d
-                    let b = d.dot(axis) * dist_c;
-                    let r = sph.radius as f64;
-                    let disc = (b * b - (dist_c * dist_c - r * r)).max(0.0);
-                    let t = b - disc.sqrt();
-                    let pdf = (1.0 / (2.0 * std::f64::consts::PI * omc)) as f32 * sel;
+                    let sin2_t = (a * (2.0 - a)).max(0.0);
+                    let sin_t = sin2_t.sqrt();
+                    let (sin_p, cos_p) = (2.0 * std::f32::consts::PI * u.y).sin_cos();
+                    let f = specula_bsdf::frame::Frame::from_normal(axis);
+                    let d =
+                        (f.s * (sin_t * cos_p) + f.t * (sin_t * sin_p) + f.n * cos_t).normalize();
+                    // nearest intersection with the sphere along d: d leaves the centre's
+                    // direction at angle θ, so the squared distance of the chord's midpoint
+                    // from the centre is dist²·sin²θ (no cancellation of b² against dist²)
+                    let r = sph.radius;
+                    let disc = (r * r - dist_c * dist_c * sin2_t).max(0.0);
+                    let t = dist_c * cos_t - disc.sqrt();
+                    let pdf = 1.0 / (2.0 * std::f32::consts::PI * omc) * sel;
                     if t.is_nan() || t <= 0.0 || !pdf.is_finite() {
                         return None;
                     }
-                    let wi = d.as_vec3();
+                    let wi = d;
                     return Some(LightSample {
                         wi,
-                        dist: t as f32,
-                        weight: radiance.eval_along(g, x, wi, t as f32) / pdf,
+                        dist: t,
+                        weight: radiance.eval_along(g, x, wi, t) / pdf,
                         pdf,
                         is_delta: false,
                         light: idx as u32,
@@ -997,6 +998,44 @@ mod tests {
 </scene>"#
         );
         Scene::from_xml_str(&text, "<test>", Path::new("."), &[])
+    }
+
+    /// Sphere lights sampled by their cone (in f32): every sample lies on the sphere's near
+    /// side, inside the cone, with the pdf `area_light_pdf` gives, for a large close sphere
+    /// and a tiny distant one (where 1 − cosθmax ≈ 5e-11).
+    #[test]
+    fn sphere_light_cone_samples_lie_on_the_sphere() {
+        for (r, z) in [(1.0f32, 2.5f32), (1e-3, -100.0)] {
+            let light = format!(
+                r#"<shape type="sphere"><float name="radius" value="{r}"/><point name="center" x="0.3" y="0.1" z="{z}"/><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"#
+            );
+            let s = scene(r#"<integrator type="path"/>"#, &light).unwrap();
+            let Light::Area { shape, .. } = &s.lights[0] else {
+                panic!("not an area light")
+            };
+            let shape = *shape;
+            let c = Vec3::new(0.3, 0.1, z);
+            let x = Vec3::new(0.0, 0.0, 4.0);
+            let mut n = 0;
+            for i in 0..64 {
+                for j in 0..16 {
+                    let u = Vec2::new((i as f32 + 0.5) / 64.0, (j as f32 + 0.5) / 16.0);
+                    let Some(ls) = s.sample_light(x, u) else {
+                        continue;
+                    };
+                    n += 1;
+                    let p = x + ls.wi * ls.dist;
+                    let err = ((p - c).length() - r).abs();
+                    assert!(err <= 1e-5 * (x - c).length(), "{r} {z}: off by {err}");
+                    // the near side: the surface faces x
+                    assert!((p - c).dot(x - p) >= -1e-4 * r * (x - c).length());
+                    let pdf = s.area_light_pdf(shape, x, p, (p - c) / r);
+                    assert!((ls.pdf / pdf - 1.0).abs() < 1e-5, "{} vs {pdf}", ls.pdf);
+                    assert!((ls.wi.length() - 1.0).abs() < 1e-6);
+                }
+            }
+            assert_eq!(n, 64 * 16, "{r} {z}: samples refused");
+        }
     }
 
     #[test]

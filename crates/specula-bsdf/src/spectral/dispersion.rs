@@ -30,6 +30,10 @@
 //! | `sf11` | Sellmeier (3) | Schott N-SF11 datasheet (dense flint) | 1.7847, 25.68 |
 //! | `f2` | Sellmeier (3) | Schott F2 datasheet (flint) | 1.6200, 36.37 |
 //!
+//! Like the catalogues, the formulas give indices relative to air. Mitsuba's default exterior
+//! (`ext_ior` = `air`, 1.000277) divides them once more, a 0.03 % error; give
+//! `ext_ior="vacuum"` for the catalogue's relative index exactly.
+//!
 //! The formulas are valid over the visible range (each source covers at least 400–700 nm);
 //! [`Ior::at`] evaluates them wherever they are finite and positive and otherwise clamps
 //! (a Sellmeier pole is far outside the visible range for every named glass).
@@ -143,6 +147,46 @@ impl Ior {
             }
             Ior::Cauchy { a, b, c } => format!("Cauchy A={a} B={b} µm² C={c} µm⁴"),
         }
+    }
+}
+
+/// The relative index η_int(λ)/η_ext of a dispersive interface (`dielectric`,
+/// `roughdielectric`, `thindielectric`): a dispersive interior over a constant exterior.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dispersion {
+    pub int: Ior,
+    pub ext: f32,
+}
+
+impl Dispersion {
+    /// The relative index at `lambda_nm`.
+    #[inline]
+    pub fn eta(&self, lambda_nm: f32) -> f32 {
+        self.int.at(lambda_nm) / self.ext
+    }
+
+    /// The relative indices at the three wavelengths of a spectral sample.
+    #[inline]
+    pub fn etas(&self, w: crate::spectrum::Wavelengths) -> [f32; 3] {
+        w.0.map(|l| self.eta(l))
+    }
+
+    /// The relative index at the d line (what RGB mode uses).
+    pub fn eta_d(&self) -> f32 {
+        self.eta(LAMBDA_D)
+    }
+}
+
+/// The per-channel relative indices a dispersive model refracts with at a shading point:
+/// `Some` only in spectral mode (`wavelengths` given) for a dispersive material.
+#[inline]
+pub fn channel_etas(
+    dispersion: &Option<Dispersion>,
+    wavelengths: Option<crate::spectrum::Wavelengths>,
+) -> Option<[f32; 3]> {
+    match (dispersion, wavelengths) {
+        (Some(d), Some(w)) => Some(d.etas(w)),
+        _ => None,
     }
 }
 

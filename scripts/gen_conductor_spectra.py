@@ -31,7 +31,7 @@ out = [
     "",
     "/// (name, wavelengths in nm (increasing), η, k) per named conductor.",
     "#[rustfmt::skip]",
-    "#[allow(clippy::type_complexity, clippy::excessive_precision)]",
+    "#[allow(clippy::type_complexity, clippy::excessive_precision, clippy::approx_constant)]",
     "pub(super) const TABLE: &[(&str, &[f32], &[f32], &[f32])] = &[",
 ]
 for n in names:

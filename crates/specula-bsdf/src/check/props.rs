@@ -77,8 +77,8 @@ pub fn reciprocity_channels<B: BsdfModel + ?Sized>(
         let mut b = bsdf.eval(&ctx, sp, wo, wi);
         if wi.z * wo.z < 0.0 {
             let e = eta.unwrap_or([1.0; 3]);
-            for c in 0..3 {
-                let n = |w: Vec3| if w.z > 0.0 { 1.0 } else { e[c] };
+            for (c, &ec) in e.iter().enumerate() {
+                let n = |w: Vec3| if w.z > 0.0 { 1.0 } else { ec };
                 a.0[c] /= n(wi) * n(wi);
                 b.0[c] /= n(wo) * n(wo);
             }

@@ -156,6 +156,7 @@ impl Dielectric {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // per-channel sums read best indexed
 mod tests {
     use super::*;
     use crate::rng::Pcg32;

@@ -120,6 +120,7 @@ impl BsdfModel for ThinDielectric {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // per-channel sums read best indexed
 mod tests {
     use super::*;
     use crate::rng::Pcg32;

@@ -2,7 +2,7 @@
 
 /// (name, wavelengths in nm (increasing), η, k) per named conductor.
 #[rustfmt::skip]
-#[allow(clippy::type_complexity, clippy::excessive_precision)]
+#[allow(clippy::type_complexity, clippy::excessive_precision, clippy::approx_constant)]
 pub(super) const TABLE: &[(&str, &[f32], &[f32], &[f32])] = &[
     ("a-C",
      &[309.950012, 326.263, 344.389008, 364.647003, 387.437988, 413.266998, 442.78598, 476.846008, 516.583008, 563.545044, 619.900024, 688.778015, 774.875, 885.570984],

@@ -82,6 +82,7 @@ pub fn names() -> impl Iterator<Item = &'static str> {
 }
 
 #[cfg(test)]
+#[allow(clippy::excessive_precision)] // the .spd files' digits
 mod tests {
     use super::*;
 

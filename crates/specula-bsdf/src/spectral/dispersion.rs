@@ -201,7 +201,9 @@ pub struct Glass {
     pub source: &'static str,
 }
 
-/// The named dispersive dielectrics (see the module documentation).
+/// The named dispersive dielectrics (see the module documentation); coefficients with the
+/// sources' digits.
+#[allow(clippy::excessive_precision)]
 pub const NAMED_GLASSES: &[Glass] = &[
     Glass {
         name: "bk7",

@@ -280,11 +280,13 @@ impl SpectralFresnel {
         match self {
             SpectralFresnel::Glass { glass, ext, inside } => {
                 let eta = glass.ior.at(l) / ext;
+                let r0 = 100.0 * fresnel_dielectric(1.0, eta).r;
                 match (inside, critical_angle(eta)) {
-                    (true, Some(c)) => {
-                        format!("{l} nm: η = {eta:.4}, critical {:.2}°", c.to_degrees())
-                    }
-                    _ => format!("{l} nm: η = {eta:.4}"),
+                    (true, Some(c)) => format!(
+                        "{l} nm: η = {eta:.4}, R(0°) = {r0:.2} %, critical {:.2}°",
+                        c.to_degrees()
+                    ),
+                    _ => format!("{l} nm: η = {eta:.4}, R(0°) = {r0:.2} %"),
                 }
             }
             SpectralFresnel::Conductor(c) => {
@@ -296,6 +298,9 @@ impl SpectralFresnel {
 }
 
 impl Picture for SpectralFresnel {
+    fn default_size(&self) -> (u32, u32) {
+        (900, 900)
+    }
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult
     where
         DB::ErrorType: 'static,
@@ -308,7 +313,12 @@ impl Picture for SpectralFresnel {
                     if *inside { "inside" } else { "outside" }
                 ),
                 format!(
-                    "unpolarised; η(λ) = n(λ)/{ext} with n(λ) from {} ({})",
+                    "unpolarised; η(λ) = n(λ){} with n(λ) from {} ({})",
+                    if *ext == 1.0 {
+                        " (relative to air)".to_string()
+                    } else {
+                        format!("/{ext}")
+                    },
                     glass.ior.describe(),
                     glass.source
                 ),
@@ -326,14 +336,76 @@ impl Picture for SpectralFresnel {
             ),
         };
         let area = titled(root, &title, &sub)?;
+        let h = area.dim_in_pixel().1;
+        let (upper, lower) = area.split_vertically((f64::from(h) * 0.64) as u32);
         let mut chart = line_chart(
-            &area,
+            &upper,
             0.0..90.0,
             0.0..1.0,
             "angle of incidence θi (°)",
             "reflectance",
         )?;
         let curves = self.curves();
+        // lower panel: each curve minus the 550 nm one, where the curves part
+        let mid = curves
+            .iter()
+            .position(|(l, _)| *l == 550.0)
+            .expect("550 nm is a curve");
+        let diffs: Vec<Vec<(f64, f64)>> = curves
+            .iter()
+            .map(|(_, pts)| {
+                pts.iter()
+                    .zip(&curves[mid].1)
+                    .map(|(a, b)| (a.0, 100.0 * (a.1 - b.1)))
+                    .collect()
+            })
+            .collect();
+        let span = diffs
+            .iter()
+            .flatten()
+            .map(|p| p.1.abs())
+            .fold(0.0f64, f64::max)
+            .max(1e-3);
+        // a readable symmetric range: 1, 2 or 5 × 10^k percentage points
+        let mag = 10f64.powf(span.log10().floor());
+        let top = [1.0, 2.0, 5.0, 10.0]
+            .iter()
+            .map(|m| m * mag)
+            .find(|v| *v >= span)
+            .unwrap_or(10.0 * mag);
+        let mut dchart = ChartBuilder::on(&lower)
+            .margin(px(15.0))
+            .margin_right(px(30.0))
+            .x_label_area_size(px(55.0))
+            .y_label_area_size(px(65.0))
+            .build_cartesian_2d(0.0..90.0, -top..top)?;
+        dchart
+            .configure_mesh()
+            .x_desc("angle of incidence θi (°)")
+            .y_desc("R(λ) − R(550 nm) (%)")
+            .x_labels(10)
+            .y_labels(5)
+            .x_label_formatter(&|v| format!("{v:.0}"))
+            .y_label_formatter(&|v| {
+                if v.abs() < 1e-9 * top {
+                    "0".into()
+                } else {
+                    super::tick_label(*v)
+                }
+            })
+            .axis_desc_style(super::text(16.0))
+            .label_style(super::text(14.0))
+            .light_line_style(TRANSPARENT)
+            .bold_line_style(stroke(RGBColor(225, 225, 225), 1.0))
+            .axis_style(stroke(RGBColor(60, 60, 60), 1.0))
+            .set_all_tick_mark_size(px(5.0))
+            .draw()?;
+        for ((l, _), pts) in curves.iter().zip(&diffs) {
+            dchart.draw_series(LineSeries::new(
+                pts.clone(),
+                stroke(wavelength_colour(*l), 2.0),
+            ))?;
+        }
         let mut drawn = Vec::new();
         for (l, pts) in &curves {
             let style = stroke(wavelength_colour(*l), 2.0);

@@ -190,6 +190,27 @@ pub fn channel_etas(
     }
 }
 
+/// For an integrator: give the channels whose path throughput is zero the wavelength of a
+/// surviving channel, for shading the rest of the path (the film keeps the original
+/// wavelengths). A dead channel's values no longer matter, and after a dispersive Dirac
+/// refraction (which keeps one channel, see `dielectric`) the path then continues as a single
+/// wavelength: later dispersive interfaces see three equal indices and refract every channel
+/// together instead of splitting again (which would discard two thirds of the paths at every
+/// further interface). Returns whether anything changed.
+pub fn collapse_dead_channels(w: &mut crate::spectrum::Wavelengths, throughput: [f32; 3]) -> bool {
+    let Some(alive) = (0..3).find(|&c| throughput[c] != 0.0) else {
+        return false;
+    };
+    let mut changed = false;
+    for c in 0..3 {
+        if throughput[c] == 0.0 && w.0[c] != w.0[alive] {
+            w.0[c] = w.0[alive];
+            changed = true;
+        }
+    }
+    changed
+}
+
 /// A named dispersive dielectric.
 #[derive(Clone, Copy, Debug)]
 pub struct Glass {
@@ -364,6 +385,19 @@ mod tests {
             assert!((ior.n_d() - nd).abs() < 1e-5, "{ior:?}");
             assert!((ior.abbe_number() - vd).abs() < 1e-2 * vd / 40.0, "{ior:?}");
         }
+    }
+
+    #[test]
+    fn dead_channels_take_a_living_wavelength() {
+        use crate::spectrum::Wavelengths;
+        let mut w = Wavelengths([400.0, 500.0, 600.0]);
+        assert!(collapse_dead_channels(&mut w, [0.0, 2.0, 0.0]));
+        assert_eq!(w.0, [500.0; 3]);
+        let mut w = Wavelengths([400.0, 500.0, 600.0]);
+        assert!(!collapse_dead_channels(&mut w, [1.0, 2.0, 3.0]));
+        assert!(!collapse_dead_channels(&mut w, [0.0; 3]));
+        assert!(collapse_dead_channels(&mut w, [1.0, 0.0, 3.0]));
+        assert_eq!(w.0, [400.0, 400.0, 600.0]);
     }
 
     #[test]

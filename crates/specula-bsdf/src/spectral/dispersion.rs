@@ -201,10 +201,11 @@ pub fn collapse_dead_channels(w: &mut crate::spectrum::Wavelengths, throughput: 
     let Some(alive) = (0..3).find(|&c| throughput[c] != 0.0) else {
         return false;
     };
+    let keep = w.0[alive];
     let mut changed = false;
-    for c in 0..3 {
-        if throughput[c] == 0.0 && w.0[c] != w.0[alive] {
-            w.0[c] = w.0[alive];
+    for (l, t) in w.0.iter_mut().zip(throughput) {
+        if t == 0.0 && *l != keep {
+            *l = keep;
             changed = true;
         }
     }

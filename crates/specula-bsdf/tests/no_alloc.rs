@@ -49,6 +49,8 @@ fn hot_paths_do_not_allocate() {
         "roughconductor distribution=beckmann alpha_u=0.1 alpha_v=0.5 multiscatter=true",
         "roughdielectric distribution=ggx alpha=0.6 multiscatter=true",
         "roughplastic distribution=beckmann alpha=0.4 multiscatter=true",
+        "principled metallic=0.6 spec_trans=0.5 roughness=0.6 anisotropic=0.4 multiscatter=true",
+        "roughconductor distribution=ggx alpha=0.5 material=Cu specular_reflectance=0.9,0.8,0.7 multiscatter=true",
     ];
     // build everything (which may allocate) before counting
     let models: Vec<_> = specs.iter().map(|s| parse_spec(s).unwrap()).collect();

@@ -61,8 +61,8 @@ pub enum BrdfCommand {
     ///
     /// Example: `specula brdf fit copper.binary --model ggx`
     Fit(crate::fit::FitArgs),
-    /// Energy compensation before and after: for a roughconductor, roughdielectric or
-    /// roughplastic spec, the directional albedo (R + T) per incidence angle with
+    /// Energy compensation before and after: for a roughconductor, roughdielectric,
+    /// roughplastic or principled spec, the directional albedo (R + T) per incidence angle with
     /// multiscatter=false (single scattering, Mitsuba's model) and multiscatter=true (Kulla &
     /// Conty), and for conductors and dielectrics the exact random walk on the microsurface
     /// (Heitz et al. 2016) with each model's lobe distance to it.

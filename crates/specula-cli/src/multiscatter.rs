@@ -1,5 +1,6 @@
 //! `specula brdf multiscatter SPEC`: energy compensation before and after, against the exact
-//! reference. For a `roughconductor`, `roughdielectric` or `roughplastic` spec, prints per
+//! reference. For a `roughconductor`, `roughdielectric`, `roughplastic` or `principled` spec,
+//! prints per
 //! incidence angle the directional albedo (R + T, importance transport) of the single-
 //! scattering model (`multiscatter=false`, Mitsuba's) and of the compensated one
 //! (`multiscatter=true`), and, for conductors and dielectrics, that of Heitz et al.'s random
@@ -18,7 +19,7 @@ use crate::output::CliError;
 
 #[derive(Debug, Args)]
 pub struct MultiscatterArgs {
-    /// A roughconductor, roughdielectric or roughplastic spec, e.g.
+    /// A roughconductor, roughdielectric, roughplastic or principled spec, e.g.
     /// "roughconductor distribution=ggx alpha=1" (quoted, or as separate words); any
     /// `multiscatter=` in it is replaced
     #[arg(required = true, num_args = 1.., value_name = "SPEC")]
@@ -49,8 +50,8 @@ fn variant(spec: &str, on: bool) -> Result<Bsdf, CliError> {
         .collect();
     if words.iter().any(|w| *w == "{" || w.starts_with('{')) {
         return Err(CliError::usage(
-            "brdf multiscatter takes one roughconductor, roughdielectric or roughplastic \
-             spec, without nested plugins",
+            "brdf multiscatter takes one roughconductor, roughdielectric, roughplastic or \
+             principled spec, without nested plugins",
         ));
     }
     let s = format!("{} multiscatter={on}", words.join(" "));
@@ -71,10 +72,14 @@ pub fn run(args: &MultiscatterArgs, out: &mut dyn Write) -> Result<(), CliError>
     let after = variant(&spec, true)?;
     if !matches!(
         before,
-        Bsdf::RoughConductor(_) | Bsdf::RoughDielectric(_) | Bsdf::RoughPlastic(_)
+        Bsdf::RoughConductor(_)
+            | Bsdf::RoughDielectric(_)
+            | Bsdf::RoughPlastic(_)
+            | Bsdf::Principled(_)
     ) {
         return Err(CliError::usage(format!(
-            "'{}' has no multiscatter option (roughconductor, roughdielectric, roughplastic)",
+            "'{}' has no multiscatter option (roughconductor, roughdielectric, roughplastic, \
+             principled)",
             before.plugin_name()
         )));
     }
@@ -172,6 +177,28 @@ mod tests {
             .collect();
         assert!(cols[0] < 0.5 && (cols[1] - 1.0).abs() < 0.01 && (cols[2] - 1.0).abs() < 0.01);
         assert!(s.contains("random walk"), "{s}");
+    }
+
+    #[test]
+    fn principled_before_and_after() {
+        let args = MultiscatterArgs {
+            material: vec!["principled base_color=1 metallic=1 roughness=1".into()],
+            angles: vec![0.0],
+            samples: 20_000,
+            seed: 1,
+        };
+        let mut out = Vec::new();
+        run(&args, &mut out).unwrap();
+        let s = String::from_utf8(out).unwrap();
+        let row = s.lines().last().unwrap();
+        let cols: Vec<f64> = row
+            .split_whitespace()
+            .skip(1)
+            .take(2)
+            .map(|c| c.parse().unwrap())
+            .collect();
+        assert!(cols[0] < 0.5 && (cols[1] - 1.0).abs() < 0.01, "{s}");
+        assert!(s.contains("no random walk"), "{s}");
     }
 
     #[test]

@@ -42,7 +42,8 @@ pub struct RenderArgs {
     pub spp: Option<u32>,
     /// Sampler (overrides the scene's, keeping its sample count and seed): independent,
     /// stratified, multijitter, orthogonal, ldsampler, or sobol (Specula's Owen-scrambled
-    /// Sobol). Stratified samplers round the sample count as Mitsuba does.
+    /// Sobol: the lowest error per sample; what a scene without `<sampler>` gets). Stratified
+    /// samplers round the sample count as Mitsuba does.
     #[arg(long, value_name = "NAME")]
     pub sampler: Option<String>,
     /// Random seed (the image is a deterministic function of the seed).

@@ -160,6 +160,17 @@ impl MicrosurfaceWalk {
 
     /// One walk for light arriving from `wi` (pointing away from the surface, either side).
     pub fn sample(&self, wi: Vec3, rng: &mut Pcg32) -> Option<WalkSample> {
+        self.sample_visit(wi, rng, |_, _| {})
+    }
+
+    /// [`Self::sample`], calling `visit(bounce, cos)` at each scattering event with the
+    /// cosine between the ray and the microfacet normal it meets (1-based bounce count).
+    pub fn sample_visit(
+        &self,
+        wi: Vec3,
+        rng: &mut Pcg32,
+        mut visit: impl FnMut(u32, f64),
+    ) -> Option<WalkSample> {
         let mut wi = wi.as_dvec3().normalize();
         // from below, walk the flipped configuration of the inverse index
         let flip = wi.z < 0.0;
@@ -204,6 +215,7 @@ impl MicrosurfaceWalk {
                 // a grazing normal rounded to the back: negligible measure
                 return None;
             }
+            visit(bounces, c);
             match self.material {
                 WalkMaterial::Conductor {
                     eta,

@@ -4,15 +4,17 @@
 //!
 //! Specula option `multiscatter` (default `false`, Mitsuba's model): add Kulla & Conty's
 //! energy-compensation lobe, so that a white rough conductor reflects all the light at every
-//! roughness and incidence (see [`crate::multiscatter`] for the method and its limits).
+//! roughness and incidence; its colour follows the random walk on the microsurface order by
+//! order (exact first bounce, walk statistics of the second) instead of Kulla & Conty's
+//! F_avg term (see [`crate::multiscatter`] for the method, its accuracy and its limits).
 
 use crate::bsdf::*;
 use crate::frame::reflect;
 use crate::fresnel::fresnel_conductor_rgb;
 use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
 use crate::multiscatter::{
-    conductor_fresnel_avg, conductor_lobe, conductor_table, conductor_table_aniso, folded_phi,
-    table_alpha, EnergyTable,
+    conductor_tables, conductor_tables_aniso, folded_phi, table_alpha, ConductorMs,
+    ConductorTables, FresnelFit,
 };
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
@@ -31,11 +33,13 @@ pub struct RoughConductor {
     pub specular_reflectance: SpectrumParam,
     /// Kulla–Conty energy compensation (Specula's `multiscatter`).
     pub multiscatter: bool,
-    /// F_avg·specular_reflectance when `eta`, `k` and `specular_reflectance` are constant
-    /// (see [`RoughConductor::with_multiscatter`]); computed per evaluation otherwise.
-    pub ms_f_avg: Option<Spectrum>,
-    /// The albedo table of a constant anisotropic roughness (built by `with_multiscatter`).
-    pub ms_aniso: Option<Arc<EnergyTable>>,
+    /// The Fresnel fit of the compensation ([`FresnelFit::conductor`]) when `eta`, `k` and
+    /// `specular_reflectance` are constant (see [`RoughConductor::with_multiscatter`]);
+    /// computed per evaluation otherwise.
+    /// With it, the compensation's colour when the roughness is constant too.
+    pub ms_f_avg: Option<(FresnelFit, Option<ConductorMs>)>,
+    /// The tables of a constant anisotropic roughness (built by `with_multiscatter`).
+    pub ms_aniso: Option<Arc<ConductorTables>>,
 }
 
 impl RoughConductor {
@@ -46,49 +50,76 @@ impl RoughConductor {
         if on {
             crate::multiscatter::prepare_conductor(self.distribution);
         }
+        self.ms_aniso = match (&self.alpha_u, &self.alpha_v) {
+            (FloatParam::Const(u), FloatParam::Const(v)) if on && u != v => Some(Arc::new(
+                conductor_tables_aniso(self.distribution, u.min(1.0), v.min(1.0)),
+            )),
+            _ => None,
+        };
+        // (RGB mode only; spectral mode evaluates the optical constants at the wavelengths)
         self.ms_f_avg = match (
             self.eta.rgb_constant(),
             self.k.rgb_constant(),
             &self.specular_reflectance,
         ) {
             (Some(e), Some(k), SpectrumParam::Const(s)) if on => {
-                Some(conductor_fresnel_avg(e, k) * *s)
+                let fit = FresnelFit::conductor(e, k, *s);
+                let ms = match (&self.alpha_u, &self.alpha_v, &self.ms_aniso) {
+                    (_, _, Some(t)) => Some(t.ms(0.0, &fit)),
+                    (FloatParam::Const(u), FloatParam::Const(v), None) => {
+                        Some(conductor_tables(self.distribution).ms(table_alpha(*u, *v), &fit))
+                    }
+                    _ => None,
+                };
+                Some((fit, ms))
             }
-            _ => None,
-        };
-        self.ms_aniso = match (&self.alpha_u, &self.alpha_v) {
-            (FloatParam::Const(u), FloatParam::Const(v)) if on && u != v => Some(Arc::new(
-                conductor_table_aniso(self.distribution, u.min(1.0), v.min(1.0)),
-            )),
             _ => None,
         };
         self
     }
 
-    /// (E(μi), E(μo), E_avg) of the white single-scattering model.
+    /// The compensation lobe (without cosine) and the white energy it adds for `wi`,
+    /// 1 − E(μi) (the probability of sampling it).
     #[inline]
-    fn ms_energy(&self, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (f32, f32, f32) {
-        if let Some(t) = &self.ms_aniso {
-            return (
-                t.e(folded_phi(wi), wi.z),
-                t.e(folded_phi(wo), wo.z),
-                t.e_aniso_avg(),
-            );
-        }
-        let t = conductor_table(self.distribution);
-        let a = table_alpha(self.alpha_u.eval(sp), self.alpha_v.eval(sp));
-        (t.e(a, wi.z), t.e(a, wo.z), t.e_avg(a))
+    fn ms_lobe(&self, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
+        let (t, xi, xo, a) = match &self.ms_aniso {
+            Some(t) => (&**t, folded_phi(wi), folded_phi(wo), 0.0),
+            None => {
+                let a = table_alpha(self.alpha_u.eval(sp), self.alpha_v.eval(sp));
+                (conductor_tables(self.distribution), a, a, a)
+            }
+        };
+        let ms = match self.ms_f_avg.filter(|_| sp.wavelengths.is_none()) {
+            Some((_, Some(ms))) => ms,
+            _ => t.ms(a, &self.ms_fit(sp)),
+        };
+        let c_i = ms.energy(&t.at(xi, wi.z));
+        let c_o = ms.energy(&t.at(xo, wo.z));
+        (ms.lobe(c_i, c_o), 1.0 - t.e(xi, wi.z))
+    }
+
+    /// The white energy the compensation adds for `wi`: 1 − E(μi).
+    #[inline]
+    fn ms_white(&self, sp: &ShadingPoint, wi: Vec3) -> f32 {
+        let e = match &self.ms_aniso {
+            Some(t) => t.e(folded_phi(wi), wi.z),
+            None => conductor_tables(self.distribution).e(
+                table_alpha(self.alpha_u.eval(sp), self.alpha_v.eval(sp)),
+                wi.z,
+            ),
+        };
+        1.0 - e
     }
 
     #[inline]
-    fn f_avg(&self, sp: &ShadingPoint) -> Spectrum {
-        // (precomputed for RGB mode only; spectral mode evaluates at the wavelengths)
+    fn ms_fit(&self, sp: &ShadingPoint) -> FresnelFit {
         match self.ms_f_avg.filter(|_| sp.wavelengths.is_none()) {
-            Some(f) => f,
-            None => {
-                conductor_fresnel_avg(self.eta.eval(sp), self.k.eval(sp))
-                    * self.specular_reflectance.eval(sp)
-            }
+            Some((f, _)) => f,
+            None => FresnelFit::conductor(
+                self.eta.eval(sp),
+                self.k.eval(sp),
+                self.specular_reflectance.eval(sp),
+            ),
         }
     }
 
@@ -119,16 +150,15 @@ impl RoughConductor {
     /// `eval_pdf` with the compensation lobe (wi, wo above the surface).
     fn eval_pdf_ms(&self, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
         let (v, p) = self.eval_pdf_ss(sp, wi, wo);
-        let (ei, eo, eavg) = self.ms_energy(sp, wi, wo);
-        let p_ms = 1.0 - ei;
+        let (lobe, p_ms) = self.ms_lobe(sp, wi, wo);
         (
-            v + conductor_lobe(ei, eo, eavg, self.f_avg(sp)),
+            v + lobe,
             (1.0 - p_ms) * p + p_ms * wo.z * std::f32::consts::FRAC_1_PI,
         )
     }
 
     fn sample_ms(&self, sp: &ShadingPoint, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
-        let p_ms = 1.0 - self.ms_energy(sp, wi, wi).0;
+        let p_ms = self.ms_white(sp, wi);
         let wo = if u1 < p_ms {
             crate::warp::square_to_cosine_hemisphere(u2)
         } else {

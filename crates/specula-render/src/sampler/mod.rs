@@ -16,7 +16,12 @@
 //! | `multijitter` | + `jitter` (true) | ⌊√N⌋ × ⌈N / ⌊√N⌋⌉ | Kensler's correlated multi-jittered sampling (2D and 1D stratified), order shuffled per dimension |
 //! | `orthogonal` | + `jitter` (true), `strength` (2) | p² for the next prime p | Jarosz et al.'s orthogonal arrays (Bose construction for strength 2, Bush otherwise), multi-jittered within strata: every pair of dimensions is stratified |
 //! | `ldsampler` | `sample_count`, `seed` | the next power of two that is a square (4, 16, 64, …) | Kollig–Keller: the (0,2)-sequence (van der Corput, Sobol) per 2D dimension, XOR-scrambled and shuffled per dimension |
-//! | `sobol` (Specula's own) | `sample_count`, `seed` | as given (best at powers of two) | Owen-scrambled Sobol (0,2)-sequence per 2D dimension, its order shuffled by a nested uniform scramble of the index (Burley 2020): progressive, each power-of-two prefix a (0,m,2)-net |
+//! | `sobol` (Specula's own) | `sample_count`, `seed` | as given (best at powers of two) | Owen-scrambled Sobol (0,2)-sequence per 2D dimension, its order shuffled by a nested uniform scramble of the index (Burley 2020): progressive, each power-of-two prefix a (0,m,2)-net; the film position and the first light sample form one 4D Owen-scrambled Sobol block |
+//!
+//! A sensor without `<sampler>` gets `sobol` with Mitsuba's default count (4): Mitsuba would
+//! use `independent`; the expected image is the same and its noise lower (for Mitsuba's own
+//! noise, name `independent` in the scene or pass `--sampler independent`). A scene's
+//! `<sampler>` is always honoured.
 //!
 //! Deviations from Mitsuba: the sequences are not bit-identical to Mitsuba's (same designs and
 //! parameters, different hashing); `seed` offsets the render's seed; the 1D dimensions of
@@ -132,9 +137,10 @@ pub struct SamplerSettings {
 }
 
 impl Default for SamplerSettings {
-    /// Mitsuba's default: `independent` with 4 samples.
+    /// What a sensor without `<sampler>` uses: `sobol` with 4 samples (Mitsuba's default is
+    /// `independent`, with the same count; the expected image is the same, with less noise).
     fn default() -> Self {
-        SamplerSettings::new(SamplerKind::Independent, 4)
+        SamplerSettings::new(SamplerKind::Sobol, 4)
     }
 }
 

@@ -18,6 +18,11 @@ done
 $S brdf plot "roughconductor material=Cu alpha=0.2 distribution=ggx" -o docs/lobe.png
 $S fresnel plot --ior 1.5 -o docs/fresnel.png
 $S fresnel plot --material Au -o docs/fresnel_au.png
+$S fresnel plot --ior bk7 --spectral -o docs/fresnel_bk7_spectral.png
+$S fresnel dispersion -o docs/dispersion.png >/dev/null
+# the dispersive prism: needs the spectral mode (`--mode spectral`)
+$S render examples/prism.xml -D spp=256 --quiet -o docs/prism_rgb.png
+$S render examples/prism.xml --mode spectral -D spp=256 --quiet -o docs/prism_spectral.png
 $S brdf slice "$SHARED/data/merl/mitsuba_rough_plastic.binary" -o docs/slice.png
 $S brdf albedo "roughconductor material=none alpha=0.8 distribution=ggx" -o docs/albedo.png
 P="principled base_color=0.8,0.3,0.2 roughness=0.35 spec_trans=0.6 clearcoat=0.8 clearcoat_gloss=0.8 sheen=0.5"

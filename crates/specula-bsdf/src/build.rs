@@ -1,4 +1,24 @@
 //! From plugin name and parameters to a model, with Mitsuba 3's parameter names and defaults.
+//!
+//! **Dispersion (Specula's extension; Mitsuba 3 has none).** `dielectric`, `roughdielectric`
+//! and `thindielectric` accept, instead of a constant `int_ior`, a wavelength-dependent
+//! interior index (the exterior `ext_ior` stays constant), given by exactly one of:
+//!
+//! - `<string name="dispersion" value="bk7"/>`: a named glass of
+//!   [`crate::spectral::dispersion::NAMED_GLASSES`] (`bk7`, `fused silica`, `sapphire`,
+//!   `diamond`, `water`, `acrylic`, `polycarbonate`, `sf11`, `f2`); `int_ior` must not be given;
+//! - `<float name="abbe_number" value="40"/>`: the Abbe number V_d, with `int_ior` read as
+//!   n_d, the index at 587.56 nm (as OpenPBR and glTF `KHR_materials_dispersion` do; the
+//!   formula is the Cauchy fit of [`crate::spectral::dispersion`]);
+//! - `cauchy_a`, `cauchy_b` (µm²) and optionally `cauchy_c` (µm⁴): n = A + B/λ² + C/λ⁴;
+//!   `int_ior` must not be given;
+//! - `sellmeier_b1`, `sellmeier_c1` (µm²) and optionally `sellmeier_b2`, `sellmeier_c2`,
+//!   `sellmeier_b3`, `sellmeier_c3`: n² = 1 + Σ Bᵢλ²/(λ² − Cᵢ); `int_ior` must not be given.
+//!
+//! `int_ior="bk7"` and the other names keep Mitsuba's constant meaning, so non-dispersive
+//! scenes render as in Mitsuba. In RGB mode a dispersive material uses its index at the d line
+//! (587.56 nm; e.g. 1.5168 for `dispersion="bk7"`, where Mitsuba's constant `bk7` is 1.5046); in
+//! spectral mode each wavelength refracts with its own index.
 
 use crate::bsdf::{BsdfModel, FloatParam, ShadingPoint, SpectrumParam};
 use crate::fresnel::FresnelMode;
@@ -8,6 +28,7 @@ use crate::models::normalmap::NormalTexture;
 use crate::models::perturbed::Perturbed;
 use crate::models::*;
 use crate::props::{BuildError, Props};
+use crate::spectral::dispersion::{Dispersion, Ior};
 use crate::spectrum::Spectrum;
 
 /// Every plugin Specula builds, with its parameters.
@@ -41,6 +62,17 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "specular_reflectance",
             "specular_transmittance",
             "fresnel",
+            "dispersion",
+            "abbe_number",
+            "cauchy_a",
+            "cauchy_b",
+            "cauchy_c",
+            "sellmeier_b1",
+            "sellmeier_b2",
+            "sellmeier_b3",
+            "sellmeier_c1",
+            "sellmeier_c2",
+            "sellmeier_c3",
         ],
     ),
     (
@@ -51,6 +83,17 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "specular_reflectance",
             "specular_transmittance",
             "fresnel",
+            "dispersion",
+            "abbe_number",
+            "cauchy_a",
+            "cauchy_b",
+            "cauchy_c",
+            "sellmeier_b1",
+            "sellmeier_b2",
+            "sellmeier_b3",
+            "sellmeier_c1",
+            "sellmeier_c2",
+            "sellmeier_c3",
         ],
     ),
     (
@@ -68,6 +111,17 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "smith_g1",
             "fresnel",
             "multiscatter",
+            "dispersion",
+            "abbe_number",
+            "cauchy_a",
+            "cauchy_b",
+            "cauchy_c",
+            "sellmeier_b1",
+            "sellmeier_b2",
+            "sellmeier_b3",
+            "sellmeier_c1",
+            "sellmeier_c2",
+            "sellmeier_c3",
         ],
     ),
     (
@@ -263,6 +317,128 @@ fn eta(p: &Props, default_int: &str) -> Result<f32, BuildError> {
     Ok(int / ext)
 }
 
+const CAUCHY: [&str; 3] = ["cauchy_a", "cauchy_b", "cauchy_c"];
+const SELLMEIER: [&str; 6] = [
+    "sellmeier_b1",
+    "sellmeier_c1",
+    "sellmeier_b2",
+    "sellmeier_c2",
+    "sellmeier_b3",
+    "sellmeier_c3",
+];
+
+/// The relative index of a dielectric interface, and its dispersion when the interior index
+/// depends on the wavelength (Specula's parameters, see the module documentation); the
+/// constant index is then the one at the d line.
+fn dielectric_eta(p: &Props, default_int: &str) -> Result<(f32, Option<Dispersion>), BuildError> {
+    let ext = p.ior("ext_ior", "air")?;
+    let given: Vec<&str> = ["dispersion", "abbe_number"]
+        .into_iter()
+        .chain(CAUCHY)
+        .chain(SELLMEIER)
+        .filter(|n| p.has(n))
+        .collect();
+    if given.is_empty() {
+        return Ok((p.ior("int_ior", default_int)? / ext, None));
+    }
+    let err = |msg: String| {
+        Err(BuildError::new(
+            p.loc.clone(),
+            format!("'{}': {msg}", p.plugin),
+        ))
+    };
+    fn family(n: &str) -> &str {
+        if n.starts_with("cauchy_") {
+            "cauchy_*"
+        } else if n.starts_with("sellmeier_") {
+            "sellmeier_*"
+        } else {
+            n
+        }
+    }
+    if let Some(other) = given.iter().find(|n| family(n) != family(given[0])) {
+        return err(format!(
+            "give one dispersion model, not both '{}' and '{other}'",
+            given[0]
+        ));
+    }
+    let uses_int_ior = given[0] == "abbe_number";
+    if !uses_int_ior && p.has("int_ior") {
+        return err(format!(
+            "'int_ior' and '{}' both give the interior index; drop 'int_ior' (with a dispersion \
+             model the index at 587.56 nm is used in RGB mode)",
+            given[0]
+        ));
+    }
+    let int = match family(given[0]) {
+        "dispersion" => {
+            let name = p.string("dispersion", "")?;
+            match crate::spectral::dispersion::glass(&name) {
+                Some(g) => g.ior,
+                None => {
+                    return err(format!(
+                        "unknown dispersive material '{name}'; known: {}",
+                        crate::spectral::dispersion::glass_names().join(", ")
+                    ))
+                }
+            }
+        }
+        "abbe_number" => {
+            let n_d = p.ior("int_ior", default_int)?;
+            let v = p.float("abbe_number", 0.0)?;
+            if v <= 0.0 {
+                return err(format!("'abbe_number' must be positive, got {v}"));
+            }
+            if n_d <= 1.0 {
+                return err(format!(
+                    "'abbe_number' needs an interior index above 1 ('int_ior' = {n_d})"
+                ));
+            }
+            Ior::from_abbe(n_d, v)
+        }
+        "cauchy_*" => {
+            let a = p.float_required("cauchy_a")?;
+            let b = p.float_required("cauchy_b")?;
+            let c = p.float("cauchy_c", 0.0)?;
+            Ior::Cauchy { a, b, c }
+        }
+        _ => {
+            let mut v = [0.0f32; 6];
+            for (i, n) in SELLMEIER.iter().enumerate() {
+                v[i] = if i < 2 {
+                    p.float_required(n)?
+                } else {
+                    p.float(n, 0.0)?
+                };
+            }
+            Ior::sellmeier(&[v[0], v[2], v[4]], &[v[1], v[3], v[5]])
+        }
+    };
+    // the formula must give a usable index over the visible range (and a bit beyond)
+    for l in (360..=830).step_by(5) {
+        let n = int.at(l as f32);
+        let bad = match int {
+            Ior::Sellmeier { b, c } => {
+                let l2 = (l as f64 * 1e-3).powi(2);
+                let n2: f64 = 1.0
+                    + (0..4)
+                        .map(|i| b[i] as f64 * l2 / (l2 - c[i] as f64))
+                        .sum::<f64>();
+                !(n2.is_finite() && n2 > 0.0)
+            }
+            _ => false,
+        };
+        if bad || !n.is_finite() || n <= 0.0 {
+            return err(format!(
+                "the dispersion formula ({}) gives no valid index at {l} nm",
+                int.describe()
+            ));
+        }
+    }
+    let d = Dispersion { int, ext };
+    Ok((d.eta_d(), Some(d)))
+}
+
 /// The single nested BSDF of a wrapper (`bumpmap`, `normalmap`, `mask`).
 fn one_nested(p: &Props) -> Result<Bsdf, BuildError> {
     match p.children.as_slice() {
@@ -359,22 +535,39 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
                 .with_multiscatter(p.bool("multiscatter", false)?),
             )
         }
-        "dielectric" => Bsdf::Dielectric(Dielectric {
-            eta: eta(&p, "bk7")?,
-            specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
-            specular_transmittance: p.spectrum("specular_transmittance", 1.0)?,
-            fresnel: fresnel_mode(&p)?,
-        }),
-        "thindielectric" => Bsdf::ThinDielectric(ThinDielectric {
-            eta: eta(&p, "bk7")?,
-            specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
-            specular_transmittance: p.spectrum("specular_transmittance", 1.0)?,
-            fresnel: fresnel_mode(&p)?,
-        }),
+        "dielectric" => {
+            let (eta, dispersion) = dielectric_eta(&p, "bk7")?;
+            Bsdf::Dielectric(Dielectric {
+                eta,
+                dispersion,
+                specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
+                specular_transmittance: p.spectrum("specular_transmittance", 1.0)?,
+                fresnel: fresnel_mode(&p)?,
+            })
+        }
+        "thindielectric" => {
+            let (eta, dispersion) = dielectric_eta(&p, "bk7")?;
+            Bsdf::ThinDielectric(ThinDielectric {
+                eta,
+                dispersion,
+                specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
+                specular_transmittance: p.spectrum("specular_transmittance", 1.0)?,
+                fresnel: fresnel_mode(&p)?,
+            })
+        }
         "roughdielectric" => {
             let (au, av) = roughness(&p, true)?;
             check_alpha(&p, &au)?;
             check_alpha(&p, &av)?;
+            let (eta, dispersion) = dielectric_eta(&p, "bk7")?;
+            let multiscatter = p.bool("multiscatter", false)?;
+            if multiscatter && dispersion.is_some() {
+                return Err(BuildError::new(
+                    p.loc.clone(),
+                    "'roughdielectric': 'multiscatter' cannot be combined with a dispersive index \
+                     (its energy tables are built for one index of refraction)",
+                ));
+            }
             Bsdf::RoughDielectric(
                 RoughDielectric {
                     distribution: distribution(&p)?,
@@ -382,13 +575,14 @@ pub fn build_bsdf(p: Props) -> Result<Bsdf, BuildError> {
                     alpha_v: av,
                     sample_visible: p.bool("sample_visible", true)?,
                     rational_g1: rational_g1(&p)?,
-                    eta: eta(&p, "bk7")?,
+                    eta,
+                    dispersion,
                     specular_reflectance: p.spectrum("specular_reflectance", 1.0)?,
                     specular_transmittance: p.spectrum("specular_transmittance", 1.0)?,
                     fresnel: fresnel_mode(&p)?,
                     multiscatter: None,
                 }
-                .with_multiscatter(p.bool("multiscatter", false)?),
+                .with_multiscatter(multiscatter),
             )
         }
         "plastic" | "roughplastic" => {

@@ -46,6 +46,20 @@ pub struct CheckArgs {
     /// x, y and z axes
     #[arg(long, value_name = "U,V", value_delimiter = ',', allow_negative_numbers = true, default_values_t = [0.0, 0.0])]
     pub uv: Vec<f32>,
+    /// Check in spectral mode at these wavelengths (nm, 360–830): three values are the three
+    /// channels of one spectral sample (a dispersive material samples the mixture over them,
+    /// and energy and reciprocity are judged per wavelength); one value puts that wavelength
+    /// in every channel. Default: RGB mode
+    #[arg(
+        long,
+        value_name = "NM,…",
+        value_delimiter = ',',
+        conflicts_with = "spectral"
+    )]
+    pub wavelengths: Option<Vec<f32>>,
+    /// Spectral mode at 450, 550 and 650 nm (`--wavelengths 450,550,650`)
+    #[arg(long)]
+    pub spectral: bool,
     /// No progress bar
     #[arg(long)]
     pub quiet: bool,
@@ -151,6 +165,30 @@ pub fn run(args: &CheckArgs, out: &mut dyn Write) -> Result<(), CliError> {
             args.uv
         )));
     }
+    let wavelengths = match (&args.wavelengths, args.spectral) {
+        (_, true) => Some(specula_bsdf::Wavelengths([450.0, 550.0, 650.0])),
+        (None, false) => None,
+        (Some(w), false) => {
+            if let Some(bad) = w
+                .iter()
+                .find(|l| !(l.is_finite() && (360.0..=830.0).contains(*l)))
+            {
+                return Err(CliError::usage(format!(
+                    "--wavelengths must lie in 360..830 nm, got {bad}"
+                )));
+            }
+            match w.as_slice() {
+                [l] => Some(specula_bsdf::Wavelengths([*l; 3])),
+                [a, b, c] => Some(specula_bsdf::Wavelengths([*a, *b, *c])),
+                _ => {
+                    return Err(CliError::usage(format!(
+                        "--wavelengths takes one or three wavelengths, got {}",
+                        w.len()
+                    )))
+                }
+            }
+        }
+    };
     let material = crate::material::load_material(&args.material)?;
     let bsdf = &material.bsdf;
 
@@ -184,6 +222,7 @@ pub fn run(args: &CheckArgs, out: &mut dyn Write) -> Result<(), CliError> {
         threads: args.threads,
         reciprocity,
         uv: glam::Vec2::new(args.uv[0], args.uv[1]),
+        wavelengths,
     };
 
     let bar = if args.quiet {
@@ -228,6 +267,15 @@ pub fn run(args: &CheckArgs, out: &mut dyn Write) -> Result<(), CliError> {
         "{:<13}uv = ({}, {}) on a flat surface (∂p/∂u, ∂p/∂v, normal = local x, y, z)",
         "at", args.uv[0], args.uv[1]
     )?;
+    match wavelengths {
+        Some(w) => writeln!(
+            out,
+            "{:<13}spectral: channels at {} nm",
+            "mode",
+            w.0.map(|l| l.to_string()).join(", ")
+        )?,
+        None => writeln!(out, "{:<13}RGB", "mode")?,
+    }
     writeln!(
         out,
         "{:<13}{} per statistical test, seed {}",

@@ -39,13 +39,23 @@ pub enum FresnelCommand {
     ///
     /// Examples: `specula fresnel plot --ior 1.5 -o fresnel.png`,
     /// `specula fresnel plot --ior water --inside -o water.svg`,
-    /// `specula fresnel plot --material Cu -o cu.png`.
+    /// `specula fresnel plot --material Cu -o cu.png`,
+    /// `specula fresnel plot --ior bk7 --spectral -o bk7.png` (one curve per wavelength).
     Plot(crate::plot::fresnel::FresnelPlotArgs),
+    /// The named dispersive dielectrics (Specula's `dispersion` parameter): a table of n at
+    /// the F, d and C lines, the Abbe number and each formula's source, and with `-o` a
+    /// picture of n(λ) over 380–780 nm.
+    ///
+    /// Examples: `specula fresnel dispersion`, `specula fresnel dispersion -o n.png`,
+    /// `specula fresnel dispersion --glass bk7,sf11,diamond -o n.svg`.
+    Dispersion(crate::plot::dispersion::DispersionArgs),
 }
 
 pub fn run(args: &FresnelArgs, out: &mut dyn Write) -> Result<(), CliError> {
-    if let Some(FresnelCommand::Plot(plot)) = &args.command {
-        return crate::plot::fresnel::run(plot, out);
+    match &args.command {
+        Some(FresnelCommand::Plot(plot)) => return crate::plot::fresnel::run(plot, out),
+        Some(FresnelCommand::Dispersion(d)) => return crate::plot::dispersion::run(d, out),
+        None => {}
     }
     match &args.material {
         Some(name) => conductor_table(name, args.steps, out),

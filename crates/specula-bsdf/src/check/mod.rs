@@ -10,5 +10,7 @@ pub mod suite;
 
 pub use chi2::{chi2_test, Chi2Config, Chi2Result};
 pub use lobe::{lobe_selection_test, LobeSelectionResult};
-pub use props::{albedo, finite_nonnegative, reciprocity, sample_consistency};
+pub use props::{
+    albedo, finite_nonnegative, reciprocity, reciprocity_channels, sample_consistency,
+};
 pub use suite::{run_suite, CheckOutcome, Reciprocity, SuiteConfig, SuiteReport, Verdict};

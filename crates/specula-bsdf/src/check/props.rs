@@ -54,6 +54,18 @@ pub fn reciprocity<B: BsdfModel + ?Sized>(
     pairs: usize,
     seed: u64,
 ) -> ReciprocityResult {
+    reciprocity_channels(bsdf, sp, eta.map(|e| [e; 3]), pairs, seed)
+}
+
+/// [`reciprocity`] with a relative index per channel (a dispersive material in spectral
+/// mode, where channel j refracts with its own η_j).
+pub fn reciprocity_channels<B: BsdfModel + ?Sized>(
+    bsdf: &B,
+    sp: &ShadingPoint,
+    eta: Option<[f32; 3]>,
+    pairs: usize,
+    seed: u64,
+) -> ReciprocityResult {
     let ctx = BsdfContext::RADIANCE;
     let mut rng = Pcg32::new(seed, 7);
     let two_sided = eta.is_some() || bsdf.flags().has_transmission();
@@ -64,10 +76,12 @@ pub fn reciprocity<B: BsdfModel + ?Sized>(
         let mut a = bsdf.eval(&ctx, sp, wi, wo);
         let mut b = bsdf.eval(&ctx, sp, wo, wi);
         if wi.z * wo.z < 0.0 {
-            let e = eta.unwrap_or(1.0);
-            let n = |w: Vec3| if w.z > 0.0 { 1.0 } else { e };
-            a /= n(wi) * n(wi);
-            b /= n(wo) * n(wo);
+            let e = eta.unwrap_or([1.0; 3]);
+            for (c, &ec) in e.iter().enumerate() {
+                let n = |w: Vec3| if w.z > 0.0 { 1.0 } else { ec };
+                a.0[c] /= n(wi) * n(wi);
+                b.0[c] /= n(wo) * n(wo);
+            }
         }
         vals.push((wi, wo, a, b));
     }

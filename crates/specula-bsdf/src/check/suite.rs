@@ -14,16 +14,22 @@
 //! a correct material fails any of them with probability `family_alpha` (0.01 by default).
 //! Every test uses its own fixed seed derived from [`SuiteConfig::seed`]: the report is a
 //! deterministic function of the material and the configuration, whatever the thread count.
+//!
+//! With [`SuiteConfig::wavelengths`] the material is checked in spectral mode at those three
+//! wavelengths (the channels of every value): the χ² test then judges the density of the
+//! spectral sampler (for a dispersive material, the mixture over the wavelengths), energy is
+//! judged per wavelength, and reciprocity uses each channel's own relative index.
 
 use crate::bsdf::{BsdfContext, BsdfModel, ShadingPoint};
 use crate::check::chi2::{chi2_test, Chi2Config, Chi2Result};
 use crate::check::lobe::{lobe_selection_test, LobeSelectionResult};
 use crate::check::props::{
-    albedo, finite_nonnegative, reciprocity, sample_consistency, AlbedoResult, ConsistencyResult,
-    ReciprocityResult,
+    albedo, finite_nonnegative, reciprocity_channels, sample_consistency, AlbedoResult,
+    ConsistencyResult, ReciprocityResult,
 };
 use crate::check::stats::{normal_sf, sidak};
 use crate::rng::Pcg32;
+use crate::spectrum::Wavelengths;
 use glam::Vec3;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -77,6 +83,8 @@ pub struct SuiteConfig<'a> {
     /// maps), on the flat shading point of [`ShadingPoint::default`] (∂p/∂u, ∂p/∂v and the
     /// geometric normal along the local x, y and z axes).
     pub uv: glam::Vec2,
+    /// Spectral mode: the wavelengths (nm) of the three channels; `None`: RGB mode.
+    pub wavelengths: Option<Wavelengths>,
 }
 
 impl Default for SuiteConfig<'_> {
@@ -89,6 +97,7 @@ impl Default for SuiteConfig<'_> {
             threads: 0,
             reciprocity: Reciprocity::Test,
             uv: glam::Vec2::ZERO,
+            wavelengths: None,
         }
     }
 }
@@ -187,15 +196,19 @@ pub fn responds_from_below<B: BsdfModel + ?Sized>(bsdf: &B) -> bool {
 /// The relative index of refraction (below over above) a transmissive material refracts
 /// with, found from its samples; `None` when it produces no refracted sample.
 pub fn relative_ior<B: BsdfModel + ?Sized>(bsdf: &B) -> Option<f32> {
+    relative_ior_at(bsdf, &ShadingPoint::default())
+}
+
+/// [`relative_ior`] at a shading point (in spectral mode, at its wavelengths).
+pub fn relative_ior_at<B: BsdfModel + ?Sized>(bsdf: &B, sp: &ShadingPoint) -> Option<f32> {
     let ctx = BsdfContext::RADIANCE;
-    let sp = ShadingPoint::default();
     let mut rng = Pcg32::new(0x10f, 2);
     for t in [0.0f32, 30.0, 60.0] {
         let wi = incidence(t);
         for _ in 0..1024 {
             let u1 = rng.next_f32();
             let u2 = rng.next_vec2();
-            if let Some(s) = bsdf.sample(&ctx, &sp, wi, u1, u2) {
+            if let Some(s) = bsdf.sample(&ctx, sp, wi, u1, u2) {
                 if s.wo.z < 0.0 && s.eta.is_finite() && s.eta > 0.0 {
                     return Some(s.eta);
                 }
@@ -264,7 +277,10 @@ pub fn run_suite<B: BsdfModel + Sync + ?Sized>(
     cfg: &SuiteConfig,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> SuiteReport {
-    let sp = ShadingPoint::at_uv(cfg.uv.x, cfg.uv.y);
+    let sp = ShadingPoint {
+        wavelengths: cfg.wavelengths,
+        ..ShadingPoint::at_uv(cfg.uv.x, cfg.uv.y)
+    };
     let flags = bsdf.flags();
     let all_delta = flags.is_all_delta();
     let angles: Vec<f32> = match &cfg.angles {
@@ -283,7 +299,23 @@ pub fn run_suite<B: BsdfModel + Sync + ?Sized>(
     // the family: one sampling test per angle, one energy test per angle and channel
     let family_size = 4 * angles.len();
     let alpha = sidak(cfg.family_alpha, family_size);
-    let eta = relative_ior(bsdf);
+    // each channel's relative index, found at its own wavelength alone
+    let eta: Option<[f32; 3]> = match cfg.wavelengths {
+        None => relative_ior(bsdf).map(|e| [e; 3]),
+        Some(w) => {
+            let at = |l: f32| {
+                let spl = ShadingPoint {
+                    wavelengths: Some(Wavelengths([l; 3])),
+                    ..sp
+                };
+                relative_ior_at(bsdf, &spl)
+            };
+            match (at(w.0[0]), at(w.0[1]), at(w.0[2])) {
+                (Some(a), Some(b), Some(c)) => Some([a, b, c]),
+                _ => None,
+            }
+        }
+    };
 
     let mut jobs: Vec<Job> = (0..angles.len()).map(Job::Sampling).collect();
     jobs.extend((0..angles.len()).map(Job::Albedo));
@@ -303,9 +335,9 @@ pub fn run_suite<B: BsdfModel + Sync + ?Sized>(
                 let seed = derive_seed(cfg.seed, 2, 0);
                 JobResult::Reciprocity(match &cfg.reciprocity {
                     Reciprocity::Substitute { model, .. } => {
-                        reciprocity(*model, &sp, eta, small, seed)
+                        reciprocity_channels(*model, &sp, eta, small, seed)
                     }
-                    _ => reciprocity(bsdf, &sp, eta, small, seed),
+                    _ => reciprocity_channels(bsdf, &sp, eta, small, seed),
                 })
             }
             Job::Sampling(i) => {
@@ -397,7 +429,11 @@ pub fn run_suite<B: BsdfModel + Sync + ?Sized>(
         &cfg.reciprocity,
     ));
     let albedos: Vec<AlbedoResult> = albedos.into_iter().map(|a| a.expect("ran")).collect();
-    outcomes.push(energy_outcome(&angles, &albedos, alpha));
+    let channels = match cfg.wavelengths {
+        Some(w) => w.0.map(|l| format!("{l} nm")),
+        None => CHANNELS.map(String::from),
+    };
+    outcomes.push(energy_outcome(&angles, &albedos, alpha, &channels));
     let sampling: Vec<JobResult> = sampling.into_iter().map(|a| a.expect("ran")).collect();
     outcomes.push(sampling_outcome(
         &angles,
@@ -443,7 +479,7 @@ fn finite_outcome(r: Result<usize, String>) -> CheckOutcome {
 fn reciprocity_outcome(
     r: ReciprocityResult,
     all_delta: bool,
-    eta: Option<f32>,
+    eta: Option<[f32; 3]>,
     mode: &Reciprocity,
 ) -> CheckOutcome {
     let name = "reciprocity";
@@ -456,7 +492,13 @@ fn reciprocity_outcome(
         };
     }
     let eta_note = match eta {
-        Some(e) if e != 1.0 => format!(", η² relation for refraction with η = {e:.4}"),
+        Some(e) if e[0] == e[1] && e[0] == e[2] && e[0] != 1.0 => {
+            format!(", η² relation for refraction with η = {:.4}", e[0])
+        }
+        Some(e) if e[0] != e[1] || e[0] != e[2] => format!(
+            ", η² relation for refraction with η = {:.4}, {:.4}, {:.4} per channel",
+            e[0], e[1], e[2]
+        ),
         _ => String::new(),
     };
     let figures = format!(
@@ -498,13 +540,18 @@ fn reciprocity_outcome(
 
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
-fn energy_outcome(angles: &[f32], albedos: &[AlbedoResult], alpha: f64) -> CheckOutcome {
+fn energy_outcome(
+    angles: &[f32],
+    albedos: &[AlbedoResult],
+    alpha: f64,
+    channel_names: &[String; 3],
+) -> CheckOutcome {
     // one-sided test of H0: albedo ≤ 1 (+ rounding) per angle and channel
     let mut worst_p = (f64::INFINITY, 0, 0);
     let mut largest = (f64::NEG_INFINITY, 0, 0);
     let mut details = Vec::new();
     for (i, a) in albedos.iter().enumerate() {
-        for (c, channel) in CHANNELS.iter().enumerate() {
+        for (c, channel) in channel_names.iter().enumerate() {
             let (m, se) = (a.mean[c] as f64, a.std_err[c] as f64);
             let excess = m - 1.0 - ALBEDO_ROUNDING;
             let p = if se > 0.0 {
@@ -550,11 +597,11 @@ fn energy_outcome(angles: &[f32], albedos: &[AlbedoResult], alpha: f64) -> Check
             "largest albedo {:.4} ± {} ({}) at θi = {}; min p = {} (at θi = {}, {}) vs α = {:.2e}",
             m,
             fmt_se(a.std_err[c] as f64),
-            CHANNELS[c],
+            channel_names[c],
             fmt_deg(angles[i]),
             fmt_p(worst_p.0),
             fmt_deg(angles[worst_p.1]),
-            CHANNELS[worst_p.2],
+            channel_names[worst_p.2],
             alpha
         ),
         details,

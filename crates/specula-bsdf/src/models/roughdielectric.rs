@@ -10,12 +10,25 @@
 //! reciprocal energy-compensation lobes (reflection and transmission, from both sides), so
 //! that a white rough interface scatters R + T = 1 at every roughness and incidence (see
 //! [`crate::multiscatter`]; the tables depend on η and are built with the material).
-
+//!
+//! **Dispersion** (Specula's `dispersion`, `abbe_number`, `cauchy_*`, `sellmeier_*`
+//! parameters, see [`crate::build`]): in RGB mode the index at the d line (587.56 nm) is used.
+//! In spectral mode (`sp.wavelengths` given) channel j is the model above with its own
+//! relative index η_j, f_j(wi, wo). Sampling is hero-wavelength MIS across the wavelengths
+//! (Wilkie et al. 2014, "Hero wavelength spectral sampling"): a channel h is chosen uniformly
+//! (from `u1`, re-stretched) and a direction is drawn from p_h, the density of the model with
+//! η_h; the direction's density is then the mixture p̄(wo) = mean_j p_j(wo), which `pdf`
+//! returns, `eval` returns f_j per channel, and the sample's weight is f_j·|cosθo|/p̄ for every
+//! channel — the balance heuristic over the three wavelengths' sampling techniques, applied
+//! at the vertex. Every wavelength keeps its contribution (pbrt-v4 instead terminates the
+//! secondary wavelengths at a dispersive interface). `multiscatter` cannot be combined with a
+//! dispersive index (its tables are built for one η); the builder rejects it.
 use crate::bsdf::*;
 use crate::frame::{reflect, refract};
 use crate::fresnel::FresnelMode;
 use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
 use crate::multiscatter::{table_alpha, DielectricEnergy};
+use crate::spectral::dispersion::{channel_etas, Dispersion};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -29,8 +42,10 @@ pub struct RoughDielectric {
     pub sample_visible: bool,
     /// Beckmann: Mitsuba's rational approximation of G1 instead of the exact one.
     pub rational_g1: bool,
-    /// Relative index η_int / η_ext.
+    /// Relative index η_int / η_ext (at the d line when dispersive).
     pub eta: f32,
+    /// The wavelength-dependent relative index, when the interior is dispersive.
+    pub dispersion: Option<Dispersion>,
     pub specular_reflectance: SpectrumParam,
     pub specular_transmittance: SpectrumParam,
     pub fresnel: FresnelMode,
@@ -189,7 +204,10 @@ impl BsdfModel for RoughDielectric {
     ) -> (Spectrum, f32) {
         match &self.multiscatter {
             Some(ms) => self.eval_pdf_ms(ms, ctx, sp, wi, wo),
-            None => self.eval_pdf_ss(ctx, sp, wi, wo),
+            None => match channel_etas(&self.dispersion, sp.wavelengths) {
+                Some(etas) => self.eval_pdf_dispersive(ctx, sp, wi, wo, etas),
+                None => self.eval_pdf_ss(ctx, sp, wi, wo),
+            },
         }
     }
 
@@ -202,6 +220,9 @@ impl BsdfModel for RoughDielectric {
         u2: Vec2,
     ) -> Option<BsdfSample> {
         let Some(ms) = &self.multiscatter else {
+            if let Some(etas) = channel_etas(&self.dispersion, sp.wavelengths) {
+                return self.sample_dispersive(ctx, sp, wi, u1, u2, etas);
+            }
             return self.sample_ss(ctx, sp, wi, u1, u2);
         };
         if wi.z == 0.0 {
@@ -241,14 +262,83 @@ impl BsdfModel for RoughDielectric {
 }
 
 impl RoughDielectric {
-    /// f and the sampling density of the single-scattering model from one half-vector, D, G1
-    /// and Fresnel evaluation.
+    /// Per channel f_j with its own index; the mixture density mean_j p_j.
+    fn eval_pdf_dispersive(
+        &self,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        wo: Vec3,
+        etas: [f32; 3],
+    ) -> (Spectrum, f32) {
+        let a = self.eval_pdf_eta(ctx, sp, wi, wo, etas[0]);
+        let b = if etas[1] == etas[0] {
+            a
+        } else {
+            self.eval_pdf_eta(ctx, sp, wi, wo, etas[1])
+        };
+        let c = if etas[2] == etas[0] {
+            a
+        } else if etas[2] == etas[1] {
+            b
+        } else {
+            self.eval_pdf_eta(ctx, sp, wi, wo, etas[2])
+        };
+        (
+            Spectrum::new(a.0[0], b.0[1], c.0[2]),
+            (a.1 + b.1 + c.1) * (1.0 / 3.0),
+        )
+    }
+
+    /// Hero-wavelength MIS sampling (see the module documentation).
+    fn sample_dispersive(
+        &self,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        u1: f32,
+        u2: Vec2,
+        etas: [f32; 3],
+    ) -> Option<BsdfSample> {
+        let x = u1 * 3.0;
+        let h = (x as usize).min(2);
+        let u = (x - h as f32).clamp(0.0, 1.0 - f32::EPSILON);
+        let (wo, lobe, eta) = self.sample_direction(sp, wi, u, u2, etas[h])?;
+        let (value, pdf) = self.eval_pdf_dispersive(ctx, sp, wi, wo, etas);
+        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
+            return None;
+        }
+        Some(BsdfSample {
+            wo,
+            weight: value * (wo.z.abs() / pdf),
+            pdf,
+            lobe,
+            eta,
+        })
+    }
+
+    /// f and the sampling density of the single-scattering model.
+    #[inline]
     fn eval_pdf_ss(
         &self,
         ctx: &BsdfContext,
         sp: &ShadingPoint,
         wi: Vec3,
         wo: Vec3,
+    ) -> (Spectrum, f32) {
+        self.eval_pdf_eta(ctx, sp, wi, wo, self.eta)
+    }
+
+    /// f and the sampling density of the single-scattering model with relative index
+    /// `eta_rel`, from one half-vector, D, G1 and Fresnel evaluation.
+    #[inline]
+    fn eval_pdf_eta(
+        &self,
+        ctx: &BsdfContext,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        wo: Vec3,
+        eta_rel: f32,
     ) -> (Spectrum, f32) {
         let none = (Spectrum::ZERO, 0.0);
         let (cos_i, cos_o) = (wi.z, wo.z);
@@ -262,7 +352,7 @@ impl RoughDielectric {
             h2,
             dwi,
             dwo,
-        }) = half_vector(wi, wo, self.eta)
+        }) = half_vector(wi, wo, eta_rel)
         else {
             return none;
         };
@@ -281,7 +371,7 @@ impl RoughDielectric {
         // matters near the critical angle where R(cosθ) has a square-root singularity
         let fr = self
             .fresnel
-            .eval(if reflect { 0.5 * (dwi + dwo) } else { dwi }, self.eta);
+            .eval(if reflect { 0.5 * (dwi + dwo) } else { dwi }, eta_rel);
         let (value, lobe_prob, dwh_dwo) = if reflect {
             let v = fr.r * d * g / (4.0 * (cos_i * cos_o).abs());
             (
@@ -320,6 +410,34 @@ impl RoughDielectric {
         u1: f32,
         u2: Vec2,
     ) -> Option<BsdfSample> {
+        let (wo, lobe, eta) = self.sample_direction(sp, wi, u1, u2, self.eta)?;
+        // Report exactly what `eval` and `pdf` give for this direction: recovering m from a
+        // refraction close to the critical angle is ill-conditioned in single precision, so
+        // closed forms in the sampled m would disagree with `pdf` by up to ~1e-3.
+        let (value, pdf) = self.eval_pdf_ss(ctx, sp, wi, wo);
+        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
+            return None;
+        }
+        Some(BsdfSample {
+            wo,
+            weight: value * (wo.z.abs() / pdf),
+            pdf,
+            lobe,
+            eta,
+        })
+    }
+
+    /// A direction from the single-scattering model with relative index `eta_rel`: the
+    /// direction, its lobe and the relative index it crosses.
+    #[inline]
+    fn sample_direction(
+        &self,
+        sp: &ShadingPoint,
+        wi: Vec3,
+        u1: f32,
+        u2: Vec2,
+        eta_rel: f32,
+    ) -> Option<(Vec3, LobeFlags, f32)> {
         let cos_i = wi.z;
         if cos_i == 0.0 {
             return None;
@@ -337,7 +455,7 @@ impl RoughDielectric {
         if dwi * cos_i <= 0.0 {
             return None;
         }
-        let f = self.fresnel.eval(dwi, self.eta);
+        let f = self.fresnel.eval(dwi, eta_rel);
         let (wo, lobe, eta) = if u1 < f.r {
             (reflect(wi, m), LobeFlags::GLOSSY_REFLECTION, 1.0)
         } else {
@@ -348,19 +466,6 @@ impl RoughDielectric {
         if same_side != (lobe == LobeFlags::GLOSSY_REFLECTION) || wo.dot(m) * wo.z <= 0.0 {
             return None;
         }
-        // Report exactly what `eval` and `pdf` give for this direction: recovering m from a
-        // refraction close to the critical angle is ill-conditioned in single precision, so
-        // closed forms in the sampled m would disagree with `pdf` by up to ~1e-3.
-        let (value, pdf) = self.eval_pdf_ss(ctx, sp, wi, wo);
-        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
-            return None;
-        }
-        Some(BsdfSample {
-            wo,
-            weight: value * (wo.z.abs() / pdf),
-            pdf,
-            lobe,
-            eta,
-        })
+        Some((wo, lobe, eta))
     }
 }

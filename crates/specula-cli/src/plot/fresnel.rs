@@ -3,6 +3,10 @@
 //! A dielectric shows Rs, Rp, their mean R and Schlick's approximation, with Brewster's angle
 //! (Rp = 0) marked, and from inside the denser medium the critical angle beyond which the
 //! reflection is total. A named conductor shows its reflectance per RGB channel.
+//!
+//! `--spectral` draws one reflectance curve per wavelength instead: of a dispersive glass
+//! (`--ior bk7`, a name of Specula's `dispersion` table) or of a conductor's measured η(λ),
+//! k(λ) (`--material Au`); see [`crate::plot::dispersion`].
 
 use std::io::Write;
 
@@ -39,6 +43,10 @@ pub struct FresnelPlotArgs {
     /// reflection becomes total beyond the critical angle
     #[arg(long, conflicts_with = "material")]
     pub inside: bool,
+    /// One curve per wavelength (400–700 nm): a dispersive glass's n(λ) for `--ior` (bk7,
+    /// diamond, water, sf11, …) or a conductor's measured η(λ), k(λ) for `--material`
+    #[arg(long)]
+    pub spectral: bool,
     #[command(flatten)]
     pub out: OutputArgs,
 }
@@ -131,6 +139,16 @@ enum Plot {
 }
 
 pub fn run(args: &FresnelPlotArgs, out: &mut dyn Write) -> Result<(), CliError> {
+    if args.spectral {
+        let plot = crate::plot::dispersion::spectral_fresnel(
+            args.ior.as_deref(),
+            args.material.as_deref(),
+            args.inside,
+        )?;
+        let (w, h) = save(&plot, &args.out, true)?;
+        writeln!(out, "wrote {} ({w}×{h})", args.out.output.display())?;
+        return Ok(());
+    }
     let plot = match &args.material {
         Some(name) => {
             let Some((name, eta, k)) = find_conductor(name.trim()) else {
@@ -427,6 +445,7 @@ mod tests {
                     ior: ior.map(String::from),
                     material: material.map(String::from),
                     inside,
+                    spectral: false,
                     out: OutputArgs {
                         output: path.clone(),
                         size: Some((640, 480)),
@@ -445,6 +464,7 @@ mod tests {
             ior: Some("1.5".into()),
             material: None,
             inside: false,
+            spectral: false,
             out: OutputArgs {
                 output: dir.join("f.jpg"),
                 size: None,

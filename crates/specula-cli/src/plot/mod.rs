@@ -8,6 +8,7 @@
 //! draws them through [`Picture`], which [`save`] renders to PNG or SVG.
 
 pub mod albedo;
+pub mod dispersion;
 pub mod fresnel;
 pub mod lobe;
 pub mod phase;

@@ -159,7 +159,10 @@ impl Emitter {
 
     /// An `envmap` from an EXR/HDR (or PNG/JPEG, linearised) lat-long image.
     pub fn envmap_from_file(path: &Path, scale: f32, to_world: &Mat4) -> Result<Self> {
-        let (img, srgb) = read_image(path)?;
+        let (img, srgb) = {
+            let _t = crate::timings::span(crate::timings::Phase::Textures);
+            read_image(path)?
+        };
         Envmap::new(&img, srgb, scale, to_world)
             .map(|e| Emitter::Envmap(Box::new(e)))
             .map_err(|msg| SceneError::file(path, msg))

@@ -28,5 +28,6 @@ pub mod sampler;
 pub mod scene;
 pub mod serialized;
 pub mod texture;
+pub mod timings;
 pub mod volpath;
 pub mod xml;

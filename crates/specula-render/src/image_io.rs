@@ -42,6 +42,64 @@ impl Image {
     }
 }
 
+/// Decoded pixel values as stored: 8-bit images keep their bytes (4× less memory and no
+/// conversion pass; [`SRGB8_TO_LINEAR`]/[`UNORM8`] give their values), others are `f32`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Pixels {
+    U8(Vec<u8>),
+    F32(Vec<f32>),
+}
+
+/// A decoded image before conversion: `channels` (1 … 4) interleaved values per pixel,
+/// row-major, top row first; `srgb` as [`read_image`] returns it. Grey+alpha keeps its alpha
+/// here (2 channels).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RawImage {
+    pub width: usize,
+    pub height: usize,
+    pub channels: usize,
+    pub pixels: Pixels,
+    pub srgb: bool,
+}
+
+impl RawImage {
+    /// As an [`Image`] of `f32` values (grey+alpha loses its alpha): what [`read_image`]
+    /// returns.
+    pub fn into_image(self) -> Image {
+        let (width, height) = (self.width, self.height);
+        let (channels, data) = match self.pixels {
+            Pixels::U8(v) => {
+                let t = unorm8();
+                if self.channels == 2 {
+                    (1, v.iter().step_by(2).map(|&b| t[b as usize]).collect())
+                } else {
+                    (self.channels, v.iter().map(|&b| t[b as usize]).collect())
+                }
+            }
+            Pixels::F32(v) if self.channels == 2 => (1, v.iter().step_by(2).copied().collect()),
+            Pixels::F32(v) => (self.channels, v),
+        };
+        Image {
+            width,
+            height,
+            channels,
+            data,
+        }
+    }
+}
+
+/// `k / 255` for every byte `k`: the value of an 8-bit texel.
+pub fn unorm8() -> &'static [f32; 256] {
+    static T: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    T.get_or_init(|| std::array::from_fn(|k| k as f32 / 255.0))
+}
+
+/// The linear value of every 8-bit sRGB-encoded byte `k`: [`srgb_to_linear`]`(k / 255)`.
+pub fn srgb8_to_linear() -> &'static [f32; 256] {
+    static T: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    T.get_or_init(|| std::array::from_fn(|k| srgb_formula(k as f32 / 255.0)))
+}
+
 /// The sRGB transfer curve, decoding: encoded value in [0, 1] → linear.
 #[inline]
 pub fn srgb_to_linear(v: f32) -> f32 {
@@ -107,16 +165,37 @@ fn check_image_size(width: usize, height: usize) -> std::result::Result<(), Stri
 /// PNG/JPEG: what Mitsuba linearises unless told `raw`), `false` when they are linear
 /// (OpenEXR, Radiance HDR). Grey+alpha images keep only the grey channel.
 pub fn read_image(path: &Path) -> Result<(Image, bool)> {
+    let raw = read_image_raw(path)?;
+    let srgb = raw.srgb;
+    Ok((raw.into_image(), srgb))
+}
+
+/// [`read_image`] without the conversion to `f32`: 8-bit data stays bytes.
+pub fn read_image_raw(path: &Path) -> Result<RawImage> {
     let bytes = std::fs::read(path)
         .map_err(|e| SceneError::file(path, format!("cannot open image: {e}")))?;
-    decode_image(&bytes).map_err(|m| SceneError::file(path, m))
+    decode_image_raw(&bytes).map_err(|m| SceneError::file(path, m))
 }
 
 /// [`read_image`] on the bytes of a file; the error says what is wrong (the caller names the
 /// file).
 pub fn decode_image(bytes: &[u8]) -> std::result::Result<(Image, bool), String> {
+    let raw = decode_image_raw(bytes)?;
+    let srgb = raw.srgb;
+    Ok((raw.into_image(), srgb))
+}
+
+/// [`read_image_raw`] on the bytes of a file.
+pub fn decode_image_raw(bytes: &[u8]) -> std::result::Result<RawImage, String> {
     if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
-        return read_exr(bytes).map(|img| (img, false));
+        let img = read_exr(bytes)?;
+        return Ok(RawImage {
+            width: img.width,
+            height: img.height,
+            channels: img.channels,
+            pixels: Pixels::F32(img.data),
+            srgb: false,
+        });
     }
     read_with_image_crate(bytes)
 }
@@ -186,7 +265,7 @@ fn read_exr(bytes: &[u8]) -> std::result::Result<Image, String> {
     })
 }
 
-fn read_with_image_crate(bytes: &[u8]) -> std::result::Result<(Image, bool), String> {
+fn read_with_image_crate(bytes: &[u8]) -> std::result::Result<RawImage, String> {
     use image::DynamicImage as D;
     use image::ImageDecoder;
     let err = |e: &dyn std::fmt::Display| format!("cannot read image: {e}");
@@ -202,39 +281,29 @@ fn read_with_image_crate(bytes: &[u8]) -> std::result::Result<(Image, bool), Str
     check_image_size(w as usize, h as usize)?;
     let dynimg = D::from_decoder(decoder).map_err(|e| err(&e))?;
     let (width, height) = (dynimg.width() as usize, dynimg.height() as usize);
-    let s8 = |v: u8| v as f32 / 255.0;
     let s16 = |v: u16| v as f32 / 65535.0;
-    let (channels, data, srgb): (usize, Vec<f32>, bool) = match &dynimg {
-        D::ImageLuma8(b) => (1, b.as_raw().iter().map(|&v| s8(v)).collect(), true),
-        D::ImageLumaA8(b) => (
-            1,
-            b.as_raw().iter().step_by(2).map(|&v| s8(v)).collect(),
-            true,
-        ),
-        D::ImageRgb8(b) => (3, b.as_raw().iter().map(|&v| s8(v)).collect(), true),
-        D::ImageRgba8(b) => (4, b.as_raw().iter().map(|&v| s8(v)).collect(), true),
-        D::ImageLuma16(b) => (1, b.as_raw().iter().map(|&v| s16(v)).collect(), true),
-        D::ImageLumaA16(b) => (
-            1,
-            b.as_raw().iter().step_by(2).map(|&v| s16(v)).collect(),
-            true,
-        ),
-        D::ImageRgb16(b) => (3, b.as_raw().iter().map(|&v| s16(v)).collect(), true),
-        D::ImageRgba16(b) => (4, b.as_raw().iter().map(|&v| s16(v)).collect(), true),
-        D::ImageRgb32F(b) => (3, b.as_raw().clone(), false),
-        D::ImageRgba32F(b) => (4, b.as_raw().clone(), false),
+    let f16 = |v: &[u16]| Pixels::F32(v.iter().map(|&v| s16(v)).collect());
+    let (channels, pixels, srgb) = match dynimg {
+        D::ImageLuma8(b) => (1, Pixels::U8(b.into_raw()), true),
+        D::ImageLumaA8(b) => (2, Pixels::U8(b.into_raw()), true),
+        D::ImageRgb8(b) => (3, Pixels::U8(b.into_raw()), true),
+        D::ImageRgba8(b) => (4, Pixels::U8(b.into_raw()), true),
+        D::ImageLuma16(b) => (1, f16(b.as_raw()), true),
+        D::ImageLumaA16(b) => (2, f16(b.as_raw()), true),
+        D::ImageRgb16(b) => (3, f16(b.as_raw()), true),
+        D::ImageRgba16(b) => (4, f16(b.as_raw()), true),
+        D::ImageRgb32F(b) => (3, Pixels::F32(b.into_raw()), false),
+        D::ImageRgba32F(b) => (4, Pixels::F32(b.into_raw()), false),
         // Any other (integer) layout: RGB, still sRGB-encoded.
-        other => (3, other.to_rgb32f().into_raw(), true),
+        other => (3, Pixels::F32(other.to_rgb32f().into_raw()), true),
     };
-    Ok((
-        Image {
-            width,
-            height,
-            channels,
-            data,
-        },
+    Ok(RawImage {
+        width,
+        height,
+        channels,
+        pixels,
         srgb,
-    ))
+    })
 }
 
 fn check_len(path: &Path, width: usize, height: usize, rgb: &[f32]) -> Result<()> {

@@ -136,7 +136,10 @@ mod tests {
         assert!(got["textures"] >= 0.006, "{got:?}");
         assert!(got["bsdfs"] >= 0.006, "{got:?}");
         // exclusive: the two add up to the wall time, not more
-        assert!(got["bsdfs"] + got["textures"] <= wall + 1e-6, "{got:?} {wall}");
+        assert!(
+            got["bsdfs"] + got["textures"] <= wall + 1e-6,
+            "{got:?} {wall}"
+        );
         assert_eq!(got["meshes"], 0.0);
     }
 }

@@ -36,7 +36,7 @@
 //! column; inside a cell directions are uniform in solid angle, so the pdf is constant per cell.
 
 use crate::core::{Loc, Result, SceneError};
-use crate::image_io::{read_image, srgb_to_linear, Image};
+use crate::image_io::{srgb_to_linear, Image};
 use crate::xml::Node;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use specula_bsdf::warp::{square_to_uniform_sphere, UNIFORM_SPHERE_PDF};
@@ -165,7 +165,9 @@ impl Emitter {
     pub fn envmap_from_file(path: &Path, scale: f32, to_world: &Mat4) -> Result<Self> {
         let (img, srgb) = {
             let _t = crate::timings::span(crate::timings::Phase::Textures);
-            read_image(path)?
+            let raw = crate::image_io::read_image_raw_prefetched(path)?;
+            let srgb = raw.srgb;
+            (raw.into_image(), srgb)
         };
         Envmap::new(&img, srgb, scale, to_world)
             .map(|e| Emitter::Envmap(Box::new(e)))

@@ -177,6 +177,116 @@ pub fn read_image_raw(path: &Path) -> Result<RawImage> {
     decode_image_raw(&bytes).map_err(|m| SceneError::file(path, m))
 }
 
+/// [`read_image_raw`], taking the image from the current [`prefetch`] when it holds it
+/// (waiting for its decoding to finish, or decoding it here if it has not started).
+pub fn read_image_raw_prefetched(path: &Path) -> Result<RawImage> {
+    let slot = PREFETCH.with(|c| c.borrow().as_ref().and_then(|m| m.get(path).cloned()));
+    match slot {
+        Some(slot) => slot.take(path),
+        None => read_image_raw(path),
+    }
+}
+
+/// Images decoded ahead of their use, on the thread pool, while the scene loader does other
+/// work (meshes, BSDF tables, the BVH): the scene's image files are independent, so on several
+/// cores they decode at the same time. Each file is decoded once; the loader takes it with
+/// [`read_image_raw_prefetched`] (a file used twice is decoded again the second time). A
+/// decoding that has not started when its image is needed is done by the loader itself, so
+/// waiting never depends on a busy pool. The prefetch belongs to the thread that started it
+/// and lasts as long as the returned guard; unfinished decodings are dropped with it.
+pub fn prefetch(paths: impl IntoIterator<Item = std::path::PathBuf>) -> PrefetchGuard {
+    let mut map = std::collections::HashMap::new();
+    for path in paths {
+        if map.contains_key(&path) || !path.is_file() {
+            continue;
+        }
+        let slot = std::sync::Arc::new(Slot {
+            state: std::sync::Mutex::new(SlotState::Pending),
+            done: std::sync::Condvar::new(),
+        });
+        let (job, p) = (slot.clone(), path.clone());
+        rayon::spawn(move || job.run(&p));
+        map.insert(path, slot);
+    }
+    let outer = PREFETCH.with(|c| c.replace(Some(map)));
+    PrefetchGuard { outer }
+}
+
+/// Ends a [`prefetch`] when dropped.
+pub struct PrefetchGuard {
+    outer: Option<PrefetchMap>,
+}
+
+impl Drop for PrefetchGuard {
+    fn drop(&mut self) {
+        let map = PREFETCH.with(|c| c.replace(self.outer.take()));
+        for slot in map.into_iter().flat_map(|m| m.into_values()) {
+            let mut s = slot.lock();
+            if !matches!(*s, SlotState::Running) {
+                *s = SlotState::Gone;
+            }
+        }
+    }
+}
+
+type PrefetchMap = std::collections::HashMap<std::path::PathBuf, std::sync::Arc<Slot>>;
+
+thread_local! {
+    static PREFETCH: std::cell::RefCell<Option<PrefetchMap>> = const { std::cell::RefCell::new(None) };
+}
+
+enum SlotState {
+    Pending,
+    Running,
+    Done(Result<RawImage>),
+    /// Taken, claimed by the loader, or abandoned.
+    Gone,
+}
+
+struct Slot {
+    state: std::sync::Mutex<SlotState>,
+    done: std::sync::Condvar,
+}
+
+impl Slot {
+    fn lock(&self) -> std::sync::MutexGuard<'_, SlotState> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The pool's job: decodes unless the loader claimed the image first.
+    fn run(&self, path: &Path) {
+        {
+            let mut s = self.lock();
+            if !matches!(*s, SlotState::Pending) {
+                return;
+            }
+            *s = SlotState::Running;
+        }
+        let r = read_image_raw(path);
+        let mut s = self.lock();
+        *s = SlotState::Done(r);
+        self.done.notify_all();
+    }
+
+    fn take(&self, path: &Path) -> Result<RawImage> {
+        let mut s = self.lock();
+        loop {
+            match std::mem::replace(&mut *s, SlotState::Gone) {
+                SlotState::Done(r) => return r,
+                SlotState::Running => {
+                    *s = SlotState::Running;
+                    s = self.done.wait(s).unwrap_or_else(|e| e.into_inner());
+                }
+                // not started (claimed now: the job will skip it), or already taken
+                SlotState::Pending | SlotState::Gone => {
+                    drop(s);
+                    return read_image_raw(path);
+                }
+            }
+        }
+    }
+}
+
 /// [`read_image`] on the bytes of a file; the error says what is wrong (the caller names the
 /// file).
 pub fn decode_image(bytes: &[u8]) -> std::result::Result<(Image, bool), String> {
@@ -440,6 +550,30 @@ mod tests {
         (0..w * h * 3)
             .map(|i| (i as f32 * 0.37).sin().abs() * 3.0 + 1e-3 * i as f32)
             .collect()
+    }
+
+    /// Prefetched images are the images read directly; a broken file gives the same error;
+    /// a file used twice, or not prefetched, is read directly; the guard ends the prefetch.
+    #[test]
+    fn prefetched_images_are_the_files() {
+        let (a, b, bad) = (tmp("pa.png"), tmp("pb.exr"), tmp("pbad.png"));
+        write_png(&a, 5, 3, &ramp(5, 3)).unwrap();
+        write_exr(&b, 4, 2, &ramp(4, 2)).unwrap();
+        std::fs::write(&*bad, b"\x89PNG not really").unwrap();
+        let direct: Vec<_> = [&a, &b, &bad]
+            .iter()
+            .map(|p| read_image_raw(p).map_err(|e| e.to_string()))
+            .collect();
+        {
+            let _g = prefetch([a.0.clone(), b.0.clone(), bad.0.clone(), a.0.clone()]);
+            for (p, want) in [&a, &b, &bad, &a].iter().zip(direct.iter().cycle()) {
+                let got = read_image_raw_prefetched(p).map_err(|e| e.to_string());
+                assert_eq!(&got, want, "{}", p.display());
+            }
+        }
+        assert!(PREFETCH.with(|c| c.borrow().is_none()));
+        let got = read_image_raw_prefetched(&b).map_err(|e| e.to_string());
+        assert_eq!(got, direct[1]);
     }
 
     #[test]

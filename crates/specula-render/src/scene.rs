@@ -297,6 +297,7 @@ impl Scene {
         drop(parse);
         opts.apply(&mut root)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let _images = crate::image_io::prefetch(crate::texture::scene_images(&root, &base));
         Builder {
             base,
             ids: HashMap::new(),

@@ -21,7 +21,8 @@
 //!   attribute through the shading point (see [`MeshAttributeTexture`]).
 
 use crate::core::{Result, SceneError};
-use crate::image_io::{read_image_raw, srgb_to_linear, Image, Pixels, RawImage};
+use crate::image_io::{read_image_raw_prefetched, srgb_to_linear, Image, Pixels, RawImage};
+use crate::xml::{Node, PropValue};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use specula_bsdf::{Rgb, ShadingPoint, Texture};
 use std::path::Path;
@@ -233,7 +234,7 @@ impl Bitmap {
                 format!("invalid wrap_mode \"{wrap}\" (repeat, mirror, clamp)"),
             )
         })?;
-        let img = read_image_raw(path)?;
+        let img = read_image_raw_prefetched(path)?;
         if img.width == 0 || img.height == 0 {
             return Err(SceneError::file(path, "image is empty"));
         }
@@ -482,6 +483,35 @@ impl Bitmap {
             (m.y_axis.x * dx + m.y_axis.y * dy) * self.height as f32,
         )
     }
+}
+
+/// The image files a scene reads (bitmap textures, environment maps), resolved as the loader
+/// resolves them, for [`crate::image_io::prefetch`]; `base` is the scene file's folder.
+pub fn scene_images(root: &Node, base: &Path) -> Vec<std::path::PathBuf> {
+    fn walk(n: &Node, base: &Path, out: &mut Vec<std::path::PathBuf>) {
+        let file = n.props.iter().find_map(|p| match (&p.name[..], &p.value) {
+            ("filename", PropValue::Str(f)) => Some(Path::new(f)),
+            _ => None,
+        });
+        if let Some(f) = file {
+            match (n.tag.as_str(), n.plugin_type.as_str()) {
+                ("texture", "bitmap") if f.is_relative() => {
+                    // as the scene's resolve_from: the declaring file's folder, then `base`
+                    let near = Path::new(&n.loc.file).parent().map(|d| d.join(f));
+                    out.push(near.filter(|p| p.exists()).unwrap_or_else(|| base.join(f)));
+                }
+                ("emitter", "envmap") => out.push(base.join(f)),
+                ("texture", "bitmap") => out.push(f.to_path_buf()),
+                _ => {}
+            }
+        }
+        for c in &n.children {
+            walk(c, base, out);
+        }
+    }
+    let mut out = vec![];
+    walk(root, base, &mut out);
+    out
 }
 
 /// Mitsuba's `mesh_attribute`: a vertex or face attribute of the mesh that was hit (`name` =

@@ -157,18 +157,38 @@ class Run:
         self.rc, self.wall, self.rss_mb, self.out, self.err, self.t0 = rc, wall, rss_mb, out, err, t0
 
 
+WRAPPER = r"""
+import os, sys
+pid = os.fork()
+if pid == 0:
+    os.execvp(sys.argv[2], sys.argv[2:])
+_, status, ru = os.wait4(pid, 0)
+open(sys.argv[1], "w").write(str(ru.ru_maxrss))
+sys.exit(os.waitstatus_to_exitcode(status) & 255)
+"""
+
+
 def run_measured(cmd, env=None):
-    """Runs `cmd` alone and measures it: wall time and its own peak RSS (os.wait4's rusage)."""
+    """Runs `cmd` alone and measures it: wall time and its own peak RSS. The RSS comes from a
+    small intermediate process (GNU time, or a bare Python that forks it): a child forked
+    straight from this script would count this script's memory (Mitsuba and numpy imported)
+    as its own, since the kernel's maximum includes the pages it held before exec. (The bare
+    Python fallback adds its own few MB.)"""
     import tempfile
-    with tempfile.TemporaryFile("w+") as fo, tempfile.TemporaryFile("w+") as fe:
+    with tempfile.TemporaryFile("w+") as fo, tempfile.TemporaryFile("w+") as fe, \
+            tempfile.NamedTemporaryFile("r", suffix=".rss") as fr:
+        if os.path.exists("/usr/bin/time"):
+            wrap = ["/usr/bin/time", "-f", "%M", "-o", fr.name]
+        else:
+            wrap = [sys.executable, "-c", WRAPPER, fr.name]
         t0_wall = time.time()
         t0 = time.perf_counter()
-        p = subprocess.Popen([str(c) for c in cmd], stdout=fo, stderr=fe, env=env)
-        _, status, ru = os.wait4(p.pid, 0)
+        p = subprocess.run(wrap + [str(c) for c in cmd], stdout=fo, stderr=fe, env=env)
         wall = time.perf_counter() - t0
-        p.returncode = os.waitstatus_to_exitcode(status)
         fo.seek(0), fe.seek(0)
-        return Run(p.returncode, wall, ru.ru_maxrss / 1024.0, fo.read(), fe.read(), t0_wall)
+        lines = [l for l in open(fr.name).read().split() if l.isdigit()]
+        rss = int(lines[-1]) / 1024.0 if lines else float("nan")
+        return Run(p.returncode, wall, rss, fo.read(), fe.read(), t0_wall)
 
 
 SUMMARY = re.compile(r"(\d+)×(\d+) at (\d+) spp \((\w+)\) in ([0-9.]+) s — ([0-9.]+) M samples/s")

@@ -153,8 +153,9 @@ print("@@MI@@" + json.dumps(dict(w=w, h=h, start=t_start, loaded=t_loaded, first
 class Run:
     """A finished child process: rc, wall seconds, peak resident memory (MB), stdout, stderr."""
 
-    def __init__(self, rc, wall, rss_mb, out, err, t0):
-        self.rc, self.wall, self.rss_mb, self.out, self.err, self.t0 = rc, wall, rss_mb, out, err, t0
+    def __init__(self, rc, wall, rss_mb, cpu, out, err, t0):
+        self.rc, self.wall, self.rss_mb, self.cpu = rc, wall, rss_mb, cpu
+        self.out, self.err, self.t0 = out, err, t0
 
 
 WRAPPER = r"""
@@ -163,7 +164,7 @@ pid = os.fork()
 if pid == 0:
     os.execvp(sys.argv[2], sys.argv[2:])
 _, status, ru = os.wait4(pid, 0)
-open(sys.argv[1], "w").write(str(ru.ru_maxrss))
+open(sys.argv[1], "w").write(f"{ru.ru_maxrss} {ru.ru_utime + ru.ru_stime}")
 sys.exit(os.waitstatus_to_exitcode(status) & 255)
 """
 
@@ -178,7 +179,7 @@ def run_measured(cmd, env=None):
     with tempfile.TemporaryFile("w+") as fo, tempfile.TemporaryFile("w+") as fe, \
             tempfile.NamedTemporaryFile("r", suffix=".rss") as fr:
         if os.path.exists("/usr/bin/time"):
-            wrap = ["/usr/bin/time", "-f", "%M", "-o", fr.name]
+            wrap = ["/usr/bin/time", "-f", "%M %U %S", "-o", fr.name]
         else:
             wrap = [sys.executable, "-c", WRAPPER, fr.name]
         t0_wall = time.time()
@@ -186,9 +187,13 @@ def run_measured(cmd, env=None):
         p = subprocess.run(wrap + [str(c) for c in cmd], stdout=fo, stderr=fe, env=env)
         wall = time.perf_counter() - t0
         fo.seek(0), fe.seek(0)
-        lines = [l for l in open(fr.name).read().split() if l.isdigit()]
-        rss = int(lines[-1]) / 1024.0 if lines else float("nan")
-        return Run(p.returncode, wall, rss, fo.read(), fe.read(), t0_wall)
+        # (GNU time may write a "Command exited with non-zero status" line first)
+        last = (open(fr.name).read().strip().splitlines() or [""])[-1].split()
+        try:
+            rss, cpu = int(last[0]) / 1024.0, sum(float(x) for x in last[1:])
+        except (ValueError, IndexError):
+            rss, cpu = float("nan"), float("nan")
+        return Run(p.returncode, wall, rss, cpu, fo.read(), fe.read(), t0_wall)
 
 
 SUMMARY = re.compile(r"(\d+)×(\d+) at (\d+) spp \((\w+)\) in ([0-9.]+) s — ([0-9.]+) M samples/s")
@@ -219,7 +224,7 @@ def specula_run(scene, spp=None, size=None, threads=0, sampler=None, seed=0, out
         sys.exit(f"cannot read specula's output: {r.out!r}")
     w, h, n = int(m.group(1)), int(m.group(2)), int(m.group(3))
     phases = dict((k, float(v)) for k, v in re.findall(r"(\w+) ([0-9.]+) s", t.group(1)))
-    return dict(w=w, h=h, spp=n, samples=w * h * n, wall=r.wall, rss=r.rss_mb,
+    return dict(w=w, h=h, spp=n, samples=w * h * n, wall=r.wall, rss=r.rss_mb, cpu=r.cpu,
                 startup=float(t.group(2)), render=float(t.group(3)), write=float(t.group(4)),
                 phases=phases), None
 
@@ -315,20 +320,27 @@ def section_startup(a):
             results.append((s, best_run))
     st = sorted(r["startup"] for _, r in results)
     med = st[len(st) // 2] if st else float("nan")
+    cpu = sorted(r["cpu"] for _, r in results)
     over = [x for x in st if x > 0.1]
     print(f"### Start-up (before the first sample; best of {1 if a.quick else 2})\n")
-    table(["scenes loaded", "median (s)", "worst (s)", "over 0.1 s", "not loadable"],
+    print("Wall time inside `specula render` up to its first sample; CPU: the whole process's "
+          "user + system time at 1 spp, 32×24 (all threads; less sensitive to a busy "
+          "machine).\n")
+    table(["scenes loaded", "median (s)", "worst (s)", "over 0.1 s", "median CPU (s)",
+           "worst CPU (s)", "not loadable"],
           [[len(results), f"{med:.3f}", f"{st[-1]:.3f}" if st else "n/a", len(over),
+            f"{cpu[len(cpu) // 2]:.3f}" if cpu else "n/a", f"{cpu[-1]:.3f}" if cpu else "n/a",
             len(failed)]])
     slow = sorted(results, key=lambda x: -x[1]["startup"])[: a.slowest]
     phases = list(slow[0][1]["phases"]) if slow else []
     rows = []
     for s, r in slow:
         where = "scenes" if s.parent == shared else "docs"
-        rows.append([f"{s.stem} ({where})", f"{r['startup']:.3f}"]
+        rows.append([f"{s.stem} ({where})", f"{r['startup']:.3f}", f"{r['cpu']:.3f}"]
                     + [f"{r['phases'][p]:.3f}" for p in phases])
-    print(f"Slowest {len(slow)} (seconds per phase; phases spread over threads are summed):\n")
-    table(["scene", "start-up"] + phases, rows)
+    print(f"Slowest {len(slow)} (seconds per phase, on the loading thread: images decoded on "
+          "other threads count as the time spent waiting for them):\n")
+    table(["scene", "start-up", "process CPU"] + phases, rows)
 
 
 def section_scaling(a, mem):
@@ -351,9 +363,9 @@ def section_scaling(a, mem):
                 if a.mitsuba:
                     m = mitsuba_run(xml, spp, threads=threads, params=dict(spp=spp, res=res))
                 if threads == 2 or os.cpu_count() == 1:
-                    mem[("specula", f"{tris} triangles")] = r["rss"]
+                    mem[("specula", tris)] = r["rss"]
                     if m:
-                        mem[("mitsuba", f"{tris} triangles")] = m["rss"]
+                        mem[("mitsuba", tris)] = m["rss"]
                 rows.append([f"{tris:,}", threads, f"{r['wall']:.3f}", f"{r['startup']:.3f}",
                              f"{r['render']:.3f}", f_ms(m and m["process"]),
                              f_ms(m and m["loaded"] - m["start"]), f_ms(m and m["render"])])
@@ -363,11 +375,14 @@ def section_scaling(a, mem):
 
 def section_memory(a, mem):
     print("### Peak resident memory (MB)\n")
-    keys = sorted({k for _, k in mem}, key=lambda k: (k != "meshes", k))
+    order = lambda k: ((0, "") if k == "meshes"  # noqa: E731
+                       else (1, f"{k:012}") if isinstance(k, int) else (2, k))
+    keys = sorted({k for _, k in mem}, key=order)
     rows = []
     for k in keys:
         s, m = mem.get(("specula", k)), mem.get(("mitsuba", k))
-        rows.append([k, f_ms(s, 0), f_ms(m, 0), f"{s / m:.2f}" if s and m else "n/a"])
+        name = f"sphere, {k:,} triangles" if isinstance(k, int) else k
+        rows.append([name, f_ms(s, 0), f_ms(m, 0), f"{s / m:.2f}" if s and m else "n/a"])
     table(["scene", "Specula", "Mitsuba llvm (Python process)", "ratio"], rows)
 
 

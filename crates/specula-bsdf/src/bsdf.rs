@@ -233,25 +233,67 @@ pub trait Texture: Send + Sync + fmt::Debug {
     }
 }
 
+/// A spectrum known at every wavelength (a named conductor's measured η(λ) or k(λ), a
+/// `<spectrum>` list): what [`SpectrumParam::Spectral`] evaluates in spectral mode.
+pub trait SpectralCurve: Send + Sync + fmt::Debug {
+    /// The value at wavelength `lambda` (nm).
+    fn eval(&self, lambda: f32) -> f32;
+}
+
 /// A colour parameter: a constant or a texture, looked up per shading point.
+///
+/// In spectral mode (`sp.wavelengths` is `Some`), RGB constants and texture values are
+/// upsampled to smooth spectra at the point's wavelengths
+/// ([`crate::spectral::upsample::unbounded`]: a reflectance within [0, 1], a scaled one
+/// above), and a [`SpectrumParam::Spectral`] curve is evaluated at them.
 #[derive(Clone, Debug)]
 pub enum SpectrumParam {
     Const(Spectrum),
     Texture(Arc<dyn Texture>),
+    /// Known at every wavelength: `rgb` in RGB mode, `curve` at the wavelengths in spectral
+    /// mode.
+    Spectral {
+        rgb: Spectrum,
+        curve: Arc<dyn SpectralCurve>,
+    },
 }
 
 impl SpectrumParam {
     #[inline]
     pub fn eval(&self, sp: &ShadingPoint) -> Spectrum {
         match self {
-            SpectrumParam::Const(c) => *c,
-            SpectrumParam::Texture(t) => t.eval(sp),
+            SpectrumParam::Const(c) => match &sp.wavelengths {
+                None => *c,
+                Some(w) => crate::spectral::upsample::unbounded(*c, w),
+            },
+            SpectrumParam::Texture(t) => {
+                let v = t.eval(sp);
+                match &sp.wavelengths {
+                    None => v,
+                    Some(w) => crate::spectral::upsample::unbounded(v, w),
+                }
+            }
+            SpectrumParam::Spectral { rgb, curve } => match &sp.wavelengths {
+                None => *rgb,
+                Some(w) => {
+                    Spectrum::new(curve.eval(w.0[0]), curve.eval(w.0[1]), curve.eval(w.0[2]))
+                }
+            },
         }
     }
     pub fn mean(&self) -> Spectrum {
         match self {
             SpectrumParam::Const(c) => *c,
             SpectrumParam::Texture(t) => t.mean(),
+            SpectrumParam::Spectral { rgb, .. } => *rgb,
+        }
+    }
+    /// The RGB value of a parameter that does not vary over the surface (a constant, or a
+    /// spectral curve's RGB-mode value); `None` for a texture.
+    pub fn rgb_constant(&self) -> Option<Spectrum> {
+        match self {
+            SpectrumParam::Const(c) | SpectrumParam::Spectral { rgb: c, .. } => Some(*c),
+            SpectrumParam::Texture(_) => None,
         }
     }
     pub fn is_const(&self) -> bool {

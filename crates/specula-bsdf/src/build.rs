@@ -224,10 +224,23 @@ fn complex_ior(p: &Props) -> Result<(SpectrumParam, SpectrumParam), BuildError> 
         return Ok((p.spectrum("eta", 0.0)?, p.spectrum("k", 1.0)?));
     }
     match crate::data::lookup_conductor(&material) {
-        Some((e, k)) => Ok((
-            SpectrumParam::Const(Spectrum::from(e)),
-            SpectrumParam::Const(Spectrum::from(k)),
-        )),
+        // in spectral mode, the measured η(λ), k(λ) where the conductor has them
+        Some((e, k)) => Ok(match crate::spectral::conductors::lookup(&material) {
+            Some(c) => (
+                SpectrumParam::Spectral {
+                    rgb: Spectrum::from(e),
+                    curve: std::sync::Arc::new(crate::spectral::NamedConductor { c, k: false }),
+                },
+                SpectrumParam::Spectral {
+                    rgb: Spectrum::from(k),
+                    curve: std::sync::Arc::new(crate::spectral::NamedConductor { c, k: true }),
+                },
+            ),
+            None => (
+                SpectrumParam::Const(Spectrum::from(e)),
+                SpectrumParam::Const(Spectrum::from(k)),
+            ),
+        }),
         None => {
             let names: Vec<&str> = crate::data::NAMED_CONDUCTORS
                 .iter()

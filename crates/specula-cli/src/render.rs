@@ -32,6 +32,11 @@ pub struct RenderArgs {
     /// compatibility"). Off by default: Specula follows the definitions.
     #[arg(long)]
     pub mitsuba_compat: bool,
+    /// `rgb` (default: linear-sRGB channels, as Mitsuba's `*_rgb` variants) or `spectral`
+    /// (three wavelengths per path, RGB values upsampled, the film developed through the CIE
+    /// 1931 observer, as Mitsuba's `*_spectral` variants; see README, "Spectral mode").
+    #[arg(long, value_name = "MODE", default_value = "rgb")]
+    pub mode: String,
     /// Samples per pixel (overrides the scene's sampler).
     #[arg(long)]
     pub spp: Option<u32>,
@@ -82,6 +87,15 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         mitsuba_compat: args.mitsuba_compat,
     };
     let mut scene = Scene::load_with(&args.scene, &defines, &load).map_err(CliError::usage)?;
+    match args.mode.as_str() {
+        "rgb" => {}
+        "spectral" => scene.set_spectral(true).map_err(CliError::usage)?,
+        m => {
+            return Err(CliError::usage(format!(
+                "--mode: unknown mode '{m}' (one of: rgb, spectral)"
+            )))
+        }
+    }
     if let Some(name) = &args.sampler {
         scene.sampler.kind = SamplerKind::parse(name).ok_or_else(|| {
             CliError::usage(format!(
@@ -170,13 +184,14 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let c = result.counters;
     writeln!(
         out,
-        "{}{}: {}×{} at {} spp ({}) in {:.2} s — {:.3} M samples/s, {:.3} M rays/s, {} NaN/Inf samples discarded{}",
+        "{}{}: {}×{} at {} spp ({}{}) in {:.2} s — {:.3} M samples/s, {:.3} M rays/s, {} NaN/Inf samples discarded{}",
         if result.complete { "" } else { "interrupted: " },
         output.display(),
         w,
         h,
         result.spp,
         scene.sampler.kind.name(),
+        if scene.spectral { ", spectral" } else { "" },
         secs,
         c.samples as f64 / secs / 1e6,
         c.rays as f64 / secs / 1e6,

@@ -589,6 +589,50 @@ impl Envmap {
         (v0 * w0.y + v1 * w1.y) * self.scale
     }
 
+    /// Spectral mode: the radiance from world direction `d` at the wavelengths `wl`, as
+    /// Mitsuba's spectral `envmap` computes it: each of the four texels around the lookup is
+    /// upsampled as an illuminant (shape ρᵢ of rgbᵢ/sᵢ, sᵢ = 2·max(rgbᵢ)), and the bilinear
+    /// interpolation of the shapes is multiplied by the interpolation of the sᵢ and by D65
+    /// (not the interpolation of the products: near a small bright sun this shifts the colour
+    /// by a percent or so against upsampling the interpolated RGB, which Specula reproduces
+    /// so that spectral renders match Mitsuba's).
+    pub fn eval_spectral(&self, d_world: Vec3, wl: &specula_bsdf::Wavelengths) -> Rgb {
+        let d = self.local(d_world);
+        if d == Vec3::ZERO {
+            return Rgb::ZERO;
+        }
+        let uv = Self::direction_to_uv(d);
+        let (w, h) = (self.width, self.height);
+        let mut uv = uv;
+        uv.x -= 0.5 / w as f32;
+        uv.x -= uv.x.floor();
+        uv.y = uv.y.clamp(0.0, 1.0);
+        uv *= Vec2::new(w as f32, (h - 1) as f32);
+        let px = (uv.x as usize).min(w - 1);
+        let py = (uv.y as usize).min(h - 2);
+        let w1 = uv - Vec2::new(px as f32, py as f32);
+        let w0 = Vec2::ONE - w1;
+        let pw = w + 1;
+        let i = py * pw + px;
+        let mut shape = Rgb::ZERO;
+        let mut scale = 0.0f32;
+        for (idx, wt) in [
+            (i, w0.x * w0.y),
+            (i + 1, w1.x * w0.y),
+            (i + pw, w0.x * w1.y),
+            (i + pw + 1, w1.x * w1.y),
+        ] {
+            let rgb = self.texel(idx).map(|v| v.max(0.0));
+            let s = 2.0 * rgb.max_component();
+            if s > 0.0 {
+                shape += specula_bsdf::spectral::upsample::reflectance(rgb / s, wl) * wt;
+                scale += s * wt;
+            }
+        }
+        let d65 = Rgb(wl.0.map(specula_bsdf::spectral::cie::d65));
+        shape * d65 * (scale * self.scale)
+    }
+
     #[inline]
     fn local(&self, d_world: Vec3) -> Vec3 {
         (self.to_local * d_world).normalize_or_zero()

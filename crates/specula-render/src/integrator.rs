@@ -39,9 +39,10 @@ use crate::geometry::Geometry;
 use crate::sampler::Sampler;
 pub use crate::scene::PathSettings;
 use crate::scene::{Light, Scene};
+use crate::spectral::{emission, infinite_emission};
 use crate::xml::Node;
 use glam::{Vec2, Vec3};
-use specula_bsdf::{BsdfContext, BsdfModel, Rgb};
+use specula_bsdf::{BsdfContext, BsdfModel, Rgb, Wavelengths};
 
 use crate::accel::{offset_ray_origin, SHADOW_EPSILON};
 
@@ -107,6 +108,8 @@ pub(crate) struct LightSample {
     /// solid-angle pdf including the light selection probability
     pub(crate) pdf: f32,
     pub(crate) is_delta: bool,
+    /// Index of the sampled light in `Scene::lights`.
+    pub(crate) light: u32,
 }
 
 impl Scene {
@@ -175,6 +178,7 @@ impl Scene {
                         weight: radiance.eval_along(g, x, wi, t as f32) / pdf,
                         pdf,
                         is_delta: false,
+                        light: idx as u32,
                     });
                 }
                 let ps = g.sample_position(u);
@@ -197,6 +201,7 @@ impl Scene {
                     weight: radiance.eval(ps.uv, ps.p) / pdf,
                     pdf,
                     is_delta: false,
+                    light: idx as u32,
                 })
             }
             Light::Other(e) => {
@@ -211,6 +216,7 @@ impl Scene {
                     weight: ds.radiance / pdf,
                     pdf,
                     is_delta: ds.is_delta,
+                    light: idx as u32,
                 })
             }
         }
@@ -264,9 +270,9 @@ impl Scene {
         aovs: &mut [f32],
     ) -> Rgb {
         match integrator {
-            Integrator::Path(p) => self.li_path(p, ray, hit, rng, counters),
-            Integrator::Volpath(p) => self.li_volpath(p, ray, hit, rng, counters),
-            Integrator::Direct(d) => self.li_direct(d, ray, hit, rng, counters),
+            Integrator::Path(p) => self.li_path(p, ray, hit, rng, counters, None),
+            Integrator::Volpath(p) => self.li_volpath(p, ray, hit, rng, counters, None),
+            Integrator::Direct(d) => self.li_direct(d, ray, hit, rng, counters, None),
             Integrator::Depth => {
                 counters.rays += 1;
                 Rgb::splat(hit.map_or(0.0, |h| h.t))
@@ -275,7 +281,8 @@ impl Scene {
         }
     }
 
-    /// Mitsuba's `path` integrator.
+    /// Mitsuba's `path` integrator. `wl`: the path's wavelengths in spectral mode (the result
+    /// is then the radiance at them, see [`crate::spectral`]), `None` in RGB mode.
     pub fn li_path<S: Sampler>(
         &self,
         settings: &PathSettings,
@@ -283,6 +290,7 @@ impl Scene {
         hit: Option<Hit>,
         rng: &mut S,
         counters: &mut Counters,
+        wl: Option<&Wavelengths>,
     ) -> Rgb {
         let ctx = BsdfContext::RADIANCE;
         let mut result = Rgb::ZERO;
@@ -312,6 +320,7 @@ impl Scene {
                             if le.is_black() {
                                 continue;
                             }
+                            let le = infinite_emission(e, ray.d, le, wl);
                             let w = if prev_bsdf_delta {
                                 1.0
                             } else {
@@ -342,7 +351,7 @@ impl Scene {
                                 self.area_light_pdf(hit.shape, prev_p, si.p, si.n_geo),
                             )
                         };
-                        result += throughput * radiance.eval(si.uv, si.p) * w;
+                        result += throughput * emission(radiance.eval(si.uv, si.p), wl) * w;
                     }
                 }
             }
@@ -351,7 +360,8 @@ impl Scene {
                 break;
             }
             let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-            let sp = si.shading_point(&hit, self.geometry[shape].surface_data());
+            let mut sp = si.shading_point(&hit, self.geometry[shape].surface_data());
+            sp.wavelengths = wl.copied();
             let flags = bsdf.flags();
 
             // next-event estimation
@@ -374,7 +384,8 @@ impl Scene {
                             } else {
                                 mis(ls.pdf, bsdf_pdf)
                             };
-                            result += throughput * f * ls.weight * (wo.z.abs() * w);
+                            result +=
+                                throughput * f * self.light_weight(&ls, wl) * (wo.z.abs() * w);
                         }
                     }
                 }
@@ -723,7 +734,13 @@ impl Integrator {
 impl Scene {
     /// Radiance of infinitely distant lights seen along `d`, each weighted against BSDF
     /// sampling (`bsdf_pdf`, already scaled) by the power heuristic; `None` weights by 1.
-    fn infinite_radiance(&self, d: Vec3, bsdf_pdf: Option<f32>, light_frac: f32) -> Rgb {
+    fn infinite_radiance(
+        &self,
+        d: Vec3,
+        bsdf_pdf: Option<f32>,
+        light_frac: f32,
+        wl: Option<&Wavelengths>,
+    ) -> Rgb {
         let mut out = Rgb::ZERO;
         for &li in &self.infinite_lights {
             if let Light::Other(e) = &self.lights[li as usize] {
@@ -731,6 +748,7 @@ impl Scene {
                 if le.is_black() {
                     continue;
                 }
+                let le = infinite_emission(e, d, le, wl);
                 let w = match bsdf_pdf {
                     None => 1.0,
                     Some(p) => mis(p, e.pdf_direction(d) * self.light_select_pdf() * light_frac),
@@ -744,10 +762,18 @@ impl Scene {
     /// Radiance an area light on the hit shape emits towards the previous vertex (`wi` local
     /// to the hit's shading frame, pointing back along the ray), or `None` when the shape does
     /// not emit towards it.
-    fn area_emission(&self, shape: usize, si: &SurfaceGeometry, wi: Vec3) -> Option<Rgb> {
+    fn area_emission(
+        &self,
+        shape: usize,
+        si: &SurfaceGeometry,
+        wi: Vec3,
+        wl: Option<&Wavelengths>,
+    ) -> Option<Rgb> {
         let li = self.shape_light[shape]?;
         match &self.lights[li as usize] {
-            Light::Area { radiance, .. } if wi.z > 0.0 => Some(radiance.eval(si.uv, si.p)),
+            Light::Area { radiance, .. } if wi.z > 0.0 => {
+                Some(emission(radiance.eval(si.uv, si.p), wl))
+            }
             _ => None,
         }
     }
@@ -760,13 +786,14 @@ impl Scene {
         hit: Option<Hit>,
         rng: &mut S,
         counters: &mut Counters,
+        wl: Option<&Wavelengths>,
     ) -> Rgb {
         counters.rays += 1;
         let Some(hit) = hit else {
             return if settings.hide_emitters {
                 Rgb::ZERO
             } else {
-                self.infinite_radiance(ray.d, None, 1.0)
+                self.infinite_radiance(ray.d, None, 1.0, wl)
             };
         };
         let shape = hit.shape as usize;
@@ -774,7 +801,7 @@ impl Scene {
         let wi = si.sh_frame.to_local(-ray.d);
         let mut result = Rgb::ZERO;
         if !settings.hide_emitters {
-            if let Some(le) = self.area_emission(shape, &si, wi) {
+            if let Some(le) = self.area_emission(shape, &si, wi, wl) {
                 result += le;
             }
         }
@@ -783,7 +810,8 @@ impl Scene {
         let (frac_lum, frac_bsdf) = (ne as f32 / total, nb as f32 / total);
         let ctx = BsdfContext::RADIANCE;
         let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-        let sp = si.shading_point(&hit, self.geometry[shape].surface_data());
+        let mut sp = si.shading_point(&hit, self.geometry[shape].surface_data());
+        sp.wavelengths = wl.copied();
         let smooth = bsdf.flags().intersects(specula_bsdf::LobeFlags::SMOOTH);
 
         // emitter sampling
@@ -815,7 +843,7 @@ impl Scene {
             } else {
                 mis(ls.pdf * frac_lum, bsdf_pdf * frac_bsdf)
             };
-            result += f * ls.weight * (wo.z.abs() * w / ne as f32);
+            result += f * self.light_weight(&ls, wl) * (wo.z.abs() * w / ne as f32);
         }
 
         // BSDF sampling
@@ -842,12 +870,12 @@ impl Scene {
                 Some(bs.pdf * frac_bsdf)
             };
             let le = match self.intersect(&r) {
-                None => self.infinite_radiance(d, bsdf_pdf, frac_lum),
+                None => self.infinite_radiance(d, bsdf_pdf, frac_lum, wl),
                 Some(h2) => {
                     let s2 = h2.shape as usize;
                     let si2 = self.geometry[s2].surface(&r, &h2);
                     let wi2 = si2.sh_frame.to_local(-d);
-                    match self.area_emission(s2, &si2, wi2) {
+                    match self.area_emission(s2, &si2, wi2, wl) {
                         None => Rgb::ZERO,
                         Some(le) => {
                             let w = match bsdf_pdf {

@@ -27,6 +27,7 @@ pub mod render;
 pub mod sampler;
 pub mod scene;
 pub mod serialized;
+pub mod spectral;
 pub mod texture;
 pub mod timings;
 pub mod volpath;

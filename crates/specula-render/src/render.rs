@@ -97,6 +97,9 @@ fn render_tile<S: PixelSampler>(
         for x in x0..x0 + w {
             let index = (y * film.width + x) as u64;
             sampler.start_pixel(index);
+            let wl_offset = scene
+                .spectral
+                .then(|| crate::spectral::pixel_offset(sampler));
             // the pixel's camera rays are traced in packets of up to 8 (they are coherent),
             // then each path goes on alone
             let mut done = 0;
@@ -119,16 +122,27 @@ fn render_tile<S: PixelSampler>(
                 for i in 0..n {
                     // dimension 0: film position, 1: aperture (thin lens); the integrator
                     // starts at 2 whatever the camera, so that the two never share one
+                    let u_wl = wl_offset.map(|o| crate::spectral::wavelength_u(o, done + i as u32));
                     sampler.start_sample(done + i as u32, 2);
-                    let l = scene.sample_differential(
-                        integrator,
-                        rays[i],
-                        differentials.then_some(&diffs[i]),
-                        hits[i].take(),
-                        sampler,
-                        &mut c,
-                        &mut aov,
-                    );
+                    let l = match u_wl {
+                        Some(u) => scene.sample_spectral(
+                            integrator,
+                            rays[i],
+                            hits[i].take(),
+                            sampler,
+                            &mut c,
+                            u,
+                        ),
+                        None => scene.sample_differential(
+                            integrator,
+                            rays[i],
+                            differentials.then_some(&diffs[i]),
+                            hits[i].take(),
+                            sampler,
+                            &mut c,
+                            &mut aov,
+                        ),
+                    };
                     c.samples += 1;
                     if l.is_finite() {
                         block.put(pos[i], l);

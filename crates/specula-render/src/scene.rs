@@ -278,6 +278,8 @@ pub struct Scene {
     pub camera_medium: Option<u32>,
     /// The integrator is Mitsuba's `volpath` (with [`Scene::integrator`]'s settings).
     pub volpath: bool,
+    /// Render in spectral mode ([`crate::spectral`]; set it with [`Scene::set_spectral`]).
+    pub spectral: bool,
 }
 
 impl Scene {
@@ -621,6 +623,7 @@ impl Builder {
             shape_media: parts.media.shape_media,
             camera_medium: parts.media.camera_medium,
             volpath: parts.media.volpath,
+            spectral: false,
         })
     }
 

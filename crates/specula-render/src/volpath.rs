@@ -47,9 +47,10 @@ use crate::integrator::{Counters, LightSample};
 use crate::media::{is_null_bsdf, FreeFlight};
 use crate::sampler::Sampler;
 use crate::scene::{Light, PathSettings, Scene};
+use crate::spectral::{emission, infinite_emission};
 use crate::xml::Node;
 use glam::Vec3;
-use specula_bsdf::{Bsdf, BsdfContext, BsdfModel, LobeFlags, Rgb, ShadingPoint};
+use specula_bsdf::{Bsdf, BsdfContext, BsdfModel, LobeFlags, Rgb, ShadingPoint, Wavelengths};
 
 /// Reads a `<integrator type="volpath">` or `<integrator type="volpathmis">` node.
 pub fn settings_from_node(n: &Node) -> Result<PathSettings> {
@@ -99,7 +100,12 @@ fn mis(a: f32, b: f32) -> f32 {
 /// `eval_null_transmission`): everything through `null`, the slab transmittance
 /// (1 − R)·`specular_transmittance` through `thindielectric`; `None` (blocked) otherwise.
 #[inline]
-fn null_transmission(bsdf: &Bsdf, si: &crate::core::SurfaceGeometry, d: Vec3) -> Option<Rgb> {
+fn null_transmission(
+    bsdf: &Bsdf,
+    si: &crate::core::SurfaceGeometry,
+    d: Vec3,
+    wl: Option<&Wavelengths>,
+) -> Option<Rgb> {
     if is_null_bsdf(bsdf) {
         return Some(Rgb::ONE);
     }
@@ -108,6 +114,7 @@ fn null_transmission(bsdf: &Bsdf, si: &crate::core::SurfaceGeometry, d: Vec3) ->
             let sp = ShadingPoint {
                 uv: si.uv,
                 p: si.p,
+                wavelengths: wl.copied(),
                 ..Default::default()
             };
             let r = t.reflectance(si.sh_frame.n.dot(d));
@@ -125,6 +132,7 @@ impl Scene {
     /// Transmittance from `o` along `d` over `dist` (infinite: to infinity), starting in
     /// `medium`, through `null` surfaces; zero when anything else is in the way. Heterogeneous
     /// media estimate it by ratio tracking with samples of `rng`.
+    #[allow(clippy::too_many_arguments)]
     fn vp_transmittance<S: Sampler>(
         &self,
         mut o: Vec3,
@@ -133,6 +141,7 @@ impl Scene {
         mut medium: Option<u32>,
         rng: &mut S,
         counters: &mut Counters,
+        wl: Option<&Wavelengths>,
     ) -> Rgb {
         let mut tr = Rgb::ONE;
         for _ in 0..MAX_SHADOW_CROSSINGS {
@@ -152,7 +161,7 @@ impl Scene {
             }
             let si = self.geometry[shape].surface(&ray, &h);
             let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-            match null_transmission(bsdf, &si, d) {
+            match null_transmission(bsdf, &si, d, wl) {
                 Some(t) => tr *= t,
                 None => return Rgb::ZERO,
             }
@@ -178,6 +187,7 @@ impl Scene {
         medium: Option<u32>,
         rng: &mut S,
         counters: &mut Counters,
+        wl: Option<&Wavelengths>,
     ) -> Option<(LightSample, Rgb)> {
         let ls = self.sample_light(x, rng.next_2d())?;
         let dist = if ls.dist.is_finite() {
@@ -185,7 +195,7 @@ impl Scene {
         } else {
             f32::INFINITY
         };
-        let tr = self.vp_transmittance(x, ls.wi, dist, medium, rng, counters);
+        let tr = self.vp_transmittance(x, ls.wi, dist, medium, rng, counters, wl);
         if tr.is_black() {
             return None;
         }
@@ -201,6 +211,7 @@ impl Scene {
         hit: Option<Hit>,
         rng: &mut S,
         counters: &mut Counters,
+        wl: Option<&Wavelengths>,
     ) -> Rgb {
         let ctx = BsdfContext::RADIANCE;
         let max_depth = if settings.max_depth < 0 {
@@ -268,14 +279,16 @@ impl Scene {
                         let phase = m.phase();
                         if m.sample_emitters() {
                             specular_chain = false;
-                            if let Some((ls, tr)) = self.vp_nee_medium(p, medium, rng, counters) {
+                            if let Some((ls, tr)) = self.vp_nee_medium(p, medium, rng, counters, wl)
+                            {
                                 let f = phase.eval(wi, ls.wi);
                                 let w = if ls.is_delta {
                                     1.0
                                 } else {
                                     mis(ls.pdf, phase.pdf(wi, ls.wi))
                                 };
-                                result += throughput * ls.weight * tr * (f * w / r_u.mean());
+                                let lw = self.light_weight(&ls, wl);
+                                result += throughput * lw * tr * (f * w / r_u.mean());
                             }
                         } else {
                             specular_chain = true;
@@ -308,6 +321,7 @@ impl Scene {
                             if le.is_black() {
                                 continue;
                             }
+                            let le = infinite_emission(e, ray.d, le, wl);
                             let w = if count_direct {
                                 1.0
                             } else {
@@ -333,7 +347,8 @@ impl Scene {
                                 self.area_light_pdf(hit.shape, last_p, si.p, si.n_geo),
                             )
                         };
-                        result += throughput * radiance.eval(si.uv, si.p) * (w / r_u.mean());
+                        let le = emission(radiance.eval(si.uv, si.p), wl);
+                        result += throughput * le * (w / r_u.mean());
                     }
                 }
             }
@@ -351,7 +366,8 @@ impl Scene {
                 };
                 continue;
             }
-            let sp = si.shading_point(&hit, self.geometry[shape].surface_data());
+            let mut sp = si.shading_point(&hit, self.geometry[shape].surface_data());
+            sp.wavelengths = wl.copied();
 
             // next-event estimation
             if bsdf.flags().intersects(LobeFlags::SMOOTH) && depth + 1 < max_depth {
@@ -371,15 +387,15 @@ impl Scene {
                         } else {
                             f32::INFINITY
                         };
-                        let tr = self.vp_transmittance(o, ls.wi, dist, start, rng, counters);
+                        let tr = self.vp_transmittance(o, ls.wi, dist, start, rng, counters, wl);
                         if !tr.is_black() {
                             let w = if ls.is_delta {
                                 1.0
                             } else {
                                 mis(ls.pdf, bsdf_pdf)
                             };
-                            result +=
-                                throughput * f * ls.weight * tr * (wo.z.abs() * w / r_u.mean());
+                            let lw = self.light_weight(&ls, wl);
+                            result += throughput * f * lw * tr * (wo.z.abs() * w / r_u.mean());
                         }
                     }
                 }

@@ -843,12 +843,12 @@ impl BsdfModel for Merl {
     }
 
     #[inline]
-    fn eval(&self, _: &BsdfContext, _: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
+    fn eval(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Spectrum::ZERO;
         }
         let (th, td, pd, _) = half_diff_core(wi, wo);
-        self.lookup(th, td, pd)
+        crate::spectral::upsample::at_point(self.lookup(th, td, pd), sp.wavelengths.as_ref())
     }
 
     #[inline]

@@ -298,11 +298,12 @@ impl BsdfModel for Rgl {
     }
 
     #[inline]
-    fn eval(&self, _: &BsdfContext, _: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
+    fn eval(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Spectrum::ZERO;
         }
-        self.eval_cos(wi, wo) * (1.0 / wo.z)
+        let f = self.eval_cos(wi, wo) * (1.0 / wo.z);
+        crate::spectral::upsample::at_point(f, sp.wavelengths.as_ref())
     }
 
     #[inline]
@@ -319,12 +320,13 @@ impl BsdfModel for Rgl {
     }
 
     #[inline]
-    fn eval_pdf(&self, _: &BsdfContext, _: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
+    fn eval_pdf(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return (Spectrum::ZERO, 0.0);
         }
         let q = self.query(wi, wo);
         let f = self.value(q.s, q.params, q.u_m, q.u_wi) * (1.0 / wo.z);
+        let f = crate::spectral::upsample::at_point(f, sp.wavelengths.as_ref());
         let p = self.pdf_of(&q);
         (f, if p.is_finite() { p.max(0.0) } else { 0.0 })
     }
@@ -333,7 +335,7 @@ impl BsdfModel for Rgl {
     fn sample(
         &self,
         _: &BsdfContext,
-        _: &ShadingPoint,
+        sp: &ShadingPoint,
         wi: Vec3,
         _: f32,
         u2: Vec2,
@@ -373,6 +375,7 @@ impl BsdfModel for Rgl {
             return None;
         }
         let value = self.value(q.s, q.params, q.u_m, q.u_wi);
+        let value = crate::spectral::upsample::at_point(value, sp.wavelengths.as_ref());
         Some(BsdfSample {
             wo,
             weight: value * (1.0 / pdf),

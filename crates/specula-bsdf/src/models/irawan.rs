@@ -288,7 +288,7 @@ impl WeaveParams for Props {
         }
         match Props::spectrum(self, name, 0.0)? {
             SpectrumParam::Const(c) => Ok(Some(c)),
-            SpectrumParam::Texture(_) => Err(BuildError::new(
+            SpectrumParam::Texture(_) | SpectrumParam::Spectral { .. } => Err(BuildError::new(
                 self.loc.clone(),
                 format!(
                     "'irawan': parameter '{name}' must be a float or an rgb colour (the weave's \

@@ -440,9 +440,9 @@ pub fn walk_for(b: &super::Bsdf) -> Result<MicrosurfaceWalk, String> {
         FloatParam::Const(v) => Ok(*v),
         _ => Err("the random walk needs a constant roughness".to_string()),
     };
-    let kspec = |p: &SpectrumParam| match p {
-        SpectrumParam::Const(v) => Ok(*v),
-        _ => Err("the random walk needs constant optical constants".to_string()),
+    let kspec = |p: &SpectrumParam| {
+        p.rgb_constant()
+            .ok_or_else(|| "the random walk needs constant optical constants".to_string())
     };
     match b {
         super::Bsdf::RoughConductor(c) => Ok(MicrosurfaceWalk::new(

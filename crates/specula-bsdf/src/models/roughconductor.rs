@@ -46,9 +46,13 @@ impl RoughConductor {
         if on {
             crate::multiscatter::prepare_conductor(self.distribution);
         }
-        self.ms_f_avg = match (&self.eta, &self.k, &self.specular_reflectance) {
-            (SpectrumParam::Const(e), SpectrumParam::Const(k), SpectrumParam::Const(s)) if on => {
-                Some(conductor_fresnel_avg(*e, *k) * *s)
+        self.ms_f_avg = match (
+            self.eta.rgb_constant(),
+            self.k.rgb_constant(),
+            &self.specular_reflectance,
+        ) {
+            (Some(e), Some(k), SpectrumParam::Const(s)) if on => {
+                Some(conductor_fresnel_avg(e, k) * *s)
             }
             _ => None,
         };
@@ -78,7 +82,8 @@ impl RoughConductor {
 
     #[inline]
     fn f_avg(&self, sp: &ShadingPoint) -> Spectrum {
-        match self.ms_f_avg {
+        // (precomputed for RGB mode only; spectral mode evaluates at the wavelengths)
+        match self.ms_f_avg.filter(|_| sp.wavelengths.is_none()) {
             Some(f) => f,
             None => {
                 conductor_fresnel_avg(self.eta.eval(sp), self.k.eval(sp))

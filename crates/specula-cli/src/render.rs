@@ -55,9 +55,14 @@ pub struct RenderArgs {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Print where the time went: each loading phase (parse, meshes, textures, emitters,
+    /// bsdfs, bvh, other), the start-up before the first sample, the render and the write.
+    #[arg(long)]
+    pub timings: bool,
 }
 
 pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
+    let t_start = std::time::Instant::now();
     let mut defines = Vec::new();
     for d in &args.defines {
         let Some((k, v)) = d.split_once('=') else {
@@ -143,6 +148,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let start = std::time::Instant::now();
+    let startup = start - t_start;
     let samples_per_tile =
         (specula_render::render::TILE * specula_render::render::TILE) as f64 * spp as f64;
     let result = render(&scene, &opts, &stop, &|done, total| {
@@ -174,6 +180,7 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         _ => specula_render::image_io::write_exr(&output, w, h, &result.rgb),
     };
     write.map_err(CliError::usage)?;
+    let t_write = start.elapsed().saturating_sub(result.elapsed);
     let secs = result.elapsed.as_secs_f64();
     let c = result.counters;
     writeln!(
@@ -192,6 +199,23 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
         c.invalid,
         if result.complete { "" } else { " (unrendered tiles are black)" }
     )?;
+    if args.timings {
+        let phases = specula_render::timings::totals();
+        let other = startup.as_secs_f64() - phases.iter().map(|p| p.1).sum::<f64>();
+        let list: Vec<String> = phases
+            .iter()
+            .map(|(p, t)| format!("{} {t:.4} s", p.name()))
+            .collect();
+        writeln!(
+            out,
+            "timings: {}, other {:.4} s; start-up {:.4} s (before the first sample), render {:.4} s, write {:.4} s",
+            list.join(", "),
+            other.max(0.0),
+            startup.as_secs_f64(),
+            secs,
+            t_write.as_secs_f64()
+        )?;
+    }
     Ok(())
 }
 

@@ -1178,3 +1178,48 @@ fn phase_plot_draws_and_refuses_bad_phase_functions() {
         assert!(!bad.exists(), "{all:?} wrote a picture");
     }
 }
+
+/// `--timings` prints every loading phase (of an envmap scene: images, emitter tables), the
+/// start-up, the render and the write; the phases add up to no more than the start-up.
+#[test]
+fn render_timings_lists_the_phases() {
+    let Some(scene) = shared("scenes/envmap_spheres.xml") else {
+        eprintln!("skipped: ../shared is absent");
+        return;
+    };
+    let out = std::env::temp_dir().join(format!("specula-cli-timings-{}.exr", std::process::id()));
+    let o = specula(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--size",
+        "16x12",
+        "--spp",
+        "1",
+        "--quiet",
+        "--timings",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("timings: "))
+        .unwrap_or_else(|| panic!("no timings line: {text}"));
+    let secs = |name: &str| -> f64 {
+        let at = line
+            .find(&format!("{name} "))
+            .unwrap_or_else(|| panic!("{name}: {line}"));
+        line[at + name.len() + 1..]
+            .split_whitespace()
+            .next()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("{name}: {line}"))
+    };
+    let phases = ["parse", "meshes", "textures", "emitters", "bsdfs", "bvh"];
+    let sum: f64 = phases.iter().map(|p| secs(p)).sum();
+    assert!(phases.iter().all(|p| secs(p) >= 0.0), "{line}");
+    assert!(sum <= secs("start-up") + 1e-3, "{line}");
+    assert!(secs("render") > 0.0, "{line}");
+    std::fs::remove_file(&out).ok();
+}

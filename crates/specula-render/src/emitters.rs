@@ -36,7 +36,7 @@
 //! column; inside a cell directions are uniform in solid angle, so the pdf is constant per cell.
 
 use crate::core::{Loc, Result, SceneError};
-use crate::image_io::{read_image, srgb_to_linear, Image};
+use crate::image_io::{srgb_to_linear, Image};
 use crate::xml::Node;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use specula_bsdf::warp::{square_to_uniform_sphere, UNIFORM_SPHERE_PDF};
@@ -101,6 +101,10 @@ pub struct Envmap {
     row_cdf: Vec<f32>,
     /// Per cell row, the conditional CDF over its W cells (W + 1 entries each).
     col_cdf: Vec<f32>,
+    /// Cutpoint guide tables ([`guide`]) of `row_cdf` and of each row of `col_cdf`
+    /// (`guide::buckets(W) + 1` entries each).
+    row_guide: Vec<u32>,
+    col_guide: Vec<u32>,
     /// Solid-angle pdf of each cell ((H − 1) × W).
     cell_pdf: Vec<f32>,
 }
@@ -159,7 +163,12 @@ impl Emitter {
 
     /// An `envmap` from an EXR/HDR (or PNG/JPEG, linearised) lat-long image.
     pub fn envmap_from_file(path: &Path, scale: f32, to_world: &Mat4) -> Result<Self> {
-        let (img, srgb) = read_image(path)?;
+        let (img, srgb) = {
+            let _t = crate::timings::span(crate::timings::Phase::Textures);
+            let raw = crate::image_io::read_image_raw_prefetched(path)?;
+            let srgb = raw.srgb;
+            (raw.into_image(), srgb)
+        };
         Envmap::new(&img, srgb, scale, to_world)
             .map(|e| Emitter::Envmap(Box::new(e)))
             .map_err(|msg| SceneError::file(path, msg))
@@ -350,11 +359,69 @@ impl Emitter {
 }
 
 /// Picks the bin of a CDF (`n + 1` entries, 0 … 1) holding `u`, skipping empty bins, and
-/// returns it with `u` rescaled to [0, 1) within it.
-#[inline]
+/// returns it with `u` rescaled to [0, 1) within it: the binary search over the whole CDF
+/// that [`guide::sample`] reproduces (kept as its reference in the tests).
+#[cfg(test)]
 fn sample_cdf(cdf: &[f32], u: f32) -> (usize, f32) {
     let n = cdf.len() - 1;
     let idx = cdf[1..n].partition_point(|&c| c <= u);
+    bin_offset(cdf, idx, u)
+}
+
+/// Cutpoint guide tables (Chen & Asau's method) for sampling a CDF: with m buckets,
+/// entry k counts the CDF's interior entries that are ≤ k/m, so the bin holding u lies
+/// between entries k and k + 1 for the bucket k with k/m ≤ u < (k + 1)/m. The search is then
+/// over a few entries instead of the whole CDF; it returns exactly what the binary search over
+/// the whole CDF returns (same bins, same images).
+mod guide {
+    /// Buckets for a CDF of `n` bins: about four bins per bucket.
+    #[inline]
+    pub fn buckets(n: usize) -> usize {
+        n.div_ceil(4).max(1)
+    }
+
+    #[inline]
+    fn threshold(k: usize, m: usize) -> f32 {
+        k as f32 / m as f32
+    }
+
+    /// Appends the guide (`buckets(n) + 1` entries) of a CDF of `n + 1` non-decreasing
+    /// entries.
+    pub fn build(cdf: &[f32], out: &mut Vec<u32>) {
+        let inner = &cdf[1..cdf.len() - 1];
+        let m = buckets(cdf.len() - 1);
+        let mut c = 0;
+        for k in 0..m {
+            let t = threshold(k, m);
+            while c < inner.len() && inner[c] <= t {
+                c += 1;
+            }
+            out.push(c as u32);
+        }
+        out.push(inner.len() as u32);
+    }
+
+    /// Picks the bin of `cdf` (`n + 1` entries, 0 … 1) holding `u`, skipping empty bins,
+    /// through its guide `start`; returns it with `u` rescaled to [0, 1) within it.
+    #[inline]
+    pub fn sample(cdf: &[f32], start: &[u32], u: f32) -> (usize, f32) {
+        let m = start.len() - 1;
+        let mut k = ((u * m as f32) as usize).min(m - 1);
+        // bracket u exactly with the thresholds the table was built with (u·m rounds)
+        while k > 0 && threshold(k, m) > u {
+            k -= 1;
+        }
+        while k + 1 < m && threshold(k + 1, m) <= u {
+            k += 1;
+        }
+        let (lo, hi) = (start[k] as usize, start[k + 1] as usize);
+        let idx = lo + cdf[1 + lo..1 + hi].partition_point(|&c| c <= u);
+        super::bin_offset(cdf, idx, u)
+    }
+}
+
+#[inline]
+fn bin_offset(cdf: &[f32], idx: usize, u: f32) -> (usize, f32) {
     let (lo, hi) = (cdf[idx], cdf[idx + 1]);
     let t = if hi > lo { (u - lo) / (hi - lo) } else { 0.5 };
     (idx, t.clamp(0.0, 1.0 - f32::EPSILON / 2.0))
@@ -460,6 +527,12 @@ impl Envmap {
             }
             row_cdf[rows] = 1.0;
         }
+        let mut row_guide = vec![];
+        guide::build(&row_cdf, &mut row_guide);
+        let mut col_guide = Vec::with_capacity(rows * (guide::buckets(w) + 1));
+        for cdf in col_cdf.chunks_exact(w + 1) {
+            guide::build(cdf, &mut col_guide);
+        }
         Ok(Envmap {
             width: w,
             height: h,
@@ -470,6 +543,8 @@ impl Envmap {
             cos_theta,
             row_cdf,
             col_cdf,
+            row_guide,
+            col_guide,
             cell_pdf,
         })
     }
@@ -599,8 +674,13 @@ impl Envmap {
             return None; // black (or non-finite) map
         }
         let w = self.width;
-        let (j, sv) = sample_cdf(&self.row_cdf, u.y);
-        let (i, su) = sample_cdf(&self.col_cdf[j * (w + 1)..(j + 1) * (w + 1)], u.x);
+        let (j, sv) = guide::sample(&self.row_cdf, &self.row_guide, u.y);
+        let g = guide::buckets(w) + 1;
+        let (i, su) = guide::sample(
+            &self.col_cdf[j * (w + 1)..(j + 1) * (w + 1)],
+            &self.col_guide[j * g..(j + 1) * g],
+            u.x,
+        );
         let pdf = self.cell_pdf[j * w + i];
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
@@ -928,6 +1008,79 @@ pub fn light_rgb(n: &Node, name: &str) -> Result<Rgb> {
 
 #[cfg(test)]
 mod tests {
+    /// The guided search returns exactly the whole-CDF binary search's bin and offset, on
+    /// CDFs with empty bins, flat runs, steps and a single bin.
+    #[test]
+    fn guided_cdf_search_is_exact() {
+        let mut seed = 1u64;
+        let mut rnd = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut cases: Vec<Vec<f64>> =
+            vec![vec![1.0], vec![0.0, 1.0], vec![1.0, 0.0, 0.0, 0.0, 0.0]];
+        for n in [2usize, 3, 5, 7, 16, 33, 100, 513] {
+            cases.push((0..n).map(|_| rnd() as f64).collect());
+            // mostly empty with a bright spot (a sun), and flat runs of equal weights
+            cases.push(
+                (0..n)
+                    .map(|i| {
+                        if i == n / 3 {
+                            1e6
+                        } else if i % 5 == 0 {
+                            0.0
+                        } else {
+                            1e-3
+                        }
+                    })
+                    .collect(),
+            );
+            cases.push((0..n).map(|i| if i < n / 2 { 0.0 } else { 1.0 }).collect());
+        }
+        for w in &cases {
+            let total: f64 = w.iter().sum();
+            let mut cdf = vec![0.0f32];
+            let mut acc = 0.0;
+            for x in w {
+                acc += x;
+                cdf.push(if acc >= total {
+                    1.0
+                } else {
+                    (acc / total) as f32
+                });
+            }
+            let mut g = vec![];
+            super::guide::build(&cdf, &mut g);
+            assert_eq!(g.len(), super::guide::buckets(w.len()) + 1);
+            let mut us: Vec<f32> = (0..2000).map(|_| rnd()).collect();
+            // the CDF's own values, the bucket thresholds and their neighbours
+            for &c in &cdf {
+                us.extend([
+                    c,
+                    f32::from_bits(c.to_bits().saturating_sub(1)),
+                    f32::from_bits(c.to_bits() + 1),
+                ]);
+            }
+            let m = g.len() - 1;
+            for k in 0..=m {
+                let t = k as f32 / m as f32;
+                us.extend([
+                    t,
+                    f32::from_bits(t.to_bits().saturating_sub(1)),
+                    f32::from_bits(t.to_bits() + 1),
+                ]);
+            }
+            us.extend([0.0, 1.0 - f32::EPSILON / 2.0]);
+            for u in us.into_iter().filter(|u| (0.0..1.0).contains(u)) {
+                let a = super::sample_cdf(&cdf, u);
+                let b = super::guide::sample(&cdf, &g, u);
+                assert_eq!(a, b, "u = {u}, cdf {cdf:?}");
+            }
+        }
+    }
+
     use super::*;
     use specula_bsdf::rng::Pcg32;
     use std::f32::consts::FRAC_1_SQRT_2;

@@ -42,6 +42,64 @@ impl Image {
     }
 }
 
+/// Decoded pixel values as stored: 8-bit images keep their bytes (4× less memory and no
+/// conversion pass; [`SRGB8_TO_LINEAR`]/[`UNORM8`] give their values), others are `f32`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Pixels {
+    U8(Vec<u8>),
+    F32(Vec<f32>),
+}
+
+/// A decoded image before conversion: `channels` (1 … 4) interleaved values per pixel,
+/// row-major, top row first; `srgb` as [`read_image`] returns it. Grey+alpha keeps its alpha
+/// here (2 channels).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RawImage {
+    pub width: usize,
+    pub height: usize,
+    pub channels: usize,
+    pub pixels: Pixels,
+    pub srgb: bool,
+}
+
+impl RawImage {
+    /// As an [`Image`] of `f32` values (grey+alpha loses its alpha): what [`read_image`]
+    /// returns.
+    pub fn into_image(self) -> Image {
+        let (width, height) = (self.width, self.height);
+        let (channels, data) = match self.pixels {
+            Pixels::U8(v) => {
+                let t = unorm8();
+                if self.channels == 2 {
+                    (1, v.iter().step_by(2).map(|&b| t[b as usize]).collect())
+                } else {
+                    (self.channels, v.iter().map(|&b| t[b as usize]).collect())
+                }
+            }
+            Pixels::F32(v) if self.channels == 2 => (1, v.iter().step_by(2).copied().collect()),
+            Pixels::F32(v) => (self.channels, v),
+        };
+        Image {
+            width,
+            height,
+            channels,
+            data,
+        }
+    }
+}
+
+/// `k / 255` for every byte `k`: the value of an 8-bit texel.
+pub fn unorm8() -> &'static [f32; 256] {
+    static T: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    T.get_or_init(|| std::array::from_fn(|k| k as f32 / 255.0))
+}
+
+/// The linear value of every 8-bit sRGB-encoded byte `k`: [`srgb_to_linear`]`(k / 255)`.
+pub fn srgb8_to_linear() -> &'static [f32; 256] {
+    static T: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    T.get_or_init(|| std::array::from_fn(|k| srgb_formula(k as f32 / 255.0)))
+}
+
 /// The sRGB transfer curve, decoding: encoded value in [0, 1] → linear.
 #[inline]
 pub fn srgb_to_linear(v: f32) -> f32 {
@@ -107,16 +165,147 @@ fn check_image_size(width: usize, height: usize) -> std::result::Result<(), Stri
 /// PNG/JPEG: what Mitsuba linearises unless told `raw`), `false` when they are linear
 /// (OpenEXR, Radiance HDR). Grey+alpha images keep only the grey channel.
 pub fn read_image(path: &Path) -> Result<(Image, bool)> {
+    let raw = read_image_raw(path)?;
+    let srgb = raw.srgb;
+    Ok((raw.into_image(), srgb))
+}
+
+/// [`read_image`] without the conversion to `f32`: 8-bit data stays bytes.
+pub fn read_image_raw(path: &Path) -> Result<RawImage> {
     let bytes = std::fs::read(path)
         .map_err(|e| SceneError::file(path, format!("cannot open image: {e}")))?;
-    decode_image(&bytes).map_err(|m| SceneError::file(path, m))
+    decode_image_raw(&bytes).map_err(|m| SceneError::file(path, m))
+}
+
+/// [`read_image_raw`], taking the image from the current [`prefetch`] when it holds it
+/// (waiting for its decoding to finish, or decoding it here if it has not started).
+pub fn read_image_raw_prefetched(path: &Path) -> Result<RawImage> {
+    let slot = PREFETCH.with(|c| c.borrow().as_ref().and_then(|m| m.get(path).cloned()));
+    match slot {
+        Some(slot) => slot.take(path),
+        None => read_image_raw(path),
+    }
+}
+
+/// Images decoded ahead of their use, on the thread pool, while the scene loader does other
+/// work (meshes, BSDF tables, the BVH): the scene's image files are independent, so on several
+/// cores they decode at the same time. Each file is decoded once; the loader takes it with
+/// [`read_image_raw_prefetched`] (a file used twice is decoded again the second time). A
+/// decoding that has not started when its image is needed is done by the loader itself, so
+/// waiting never depends on a busy pool. The prefetch belongs to the thread that started it
+/// and lasts as long as the returned guard; unfinished decodings are dropped with it.
+pub fn prefetch(paths: impl IntoIterator<Item = std::path::PathBuf>) -> PrefetchGuard {
+    let mut map = std::collections::HashMap::new();
+    for path in paths {
+        if map.contains_key(&path) || !path.is_file() {
+            continue;
+        }
+        let slot = std::sync::Arc::new(Slot {
+            state: std::sync::Mutex::new(SlotState::Pending),
+            done: std::sync::Condvar::new(),
+        });
+        let (job, p) = (slot.clone(), path.clone());
+        rayon::spawn(move || job.run(&p));
+        map.insert(path, slot);
+    }
+    let outer = PREFETCH.with(|c| c.replace(Some(map)));
+    PrefetchGuard { outer }
+}
+
+/// Ends a [`prefetch`] when dropped.
+pub struct PrefetchGuard {
+    outer: Option<PrefetchMap>,
+}
+
+impl Drop for PrefetchGuard {
+    fn drop(&mut self) {
+        let map = PREFETCH.with(|c| c.replace(self.outer.take()));
+        for slot in map.into_iter().flat_map(|m| m.into_values()) {
+            let mut s = slot.lock();
+            if !matches!(*s, SlotState::Running) {
+                *s = SlotState::Gone;
+            }
+        }
+    }
+}
+
+type PrefetchMap = std::collections::HashMap<std::path::PathBuf, std::sync::Arc<Slot>>;
+
+thread_local! {
+    static PREFETCH: std::cell::RefCell<Option<PrefetchMap>> = const { std::cell::RefCell::new(None) };
+}
+
+enum SlotState {
+    Pending,
+    Running,
+    Done(Result<RawImage>),
+    /// Taken, claimed by the loader, or abandoned.
+    Gone,
+}
+
+struct Slot {
+    state: std::sync::Mutex<SlotState>,
+    done: std::sync::Condvar,
+}
+
+impl Slot {
+    fn lock(&self) -> std::sync::MutexGuard<'_, SlotState> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The pool's job: decodes unless the loader claimed the image first.
+    fn run(&self, path: &Path) {
+        {
+            let mut s = self.lock();
+            if !matches!(*s, SlotState::Pending) {
+                return;
+            }
+            *s = SlotState::Running;
+        }
+        let r = read_image_raw(path);
+        let mut s = self.lock();
+        *s = SlotState::Done(r);
+        self.done.notify_all();
+    }
+
+    fn take(&self, path: &Path) -> Result<RawImage> {
+        let mut s = self.lock();
+        loop {
+            match std::mem::replace(&mut *s, SlotState::Gone) {
+                SlotState::Done(r) => return r,
+                SlotState::Running => {
+                    *s = SlotState::Running;
+                    s = self.done.wait(s).unwrap_or_else(|e| e.into_inner());
+                }
+                // not started (claimed now: the job will skip it), or already taken
+                SlotState::Pending | SlotState::Gone => {
+                    drop(s);
+                    return read_image_raw(path);
+                }
+            }
+        }
+    }
 }
 
 /// [`read_image`] on the bytes of a file; the error says what is wrong (the caller names the
 /// file).
 pub fn decode_image(bytes: &[u8]) -> std::result::Result<(Image, bool), String> {
+    let raw = decode_image_raw(bytes)?;
+    let srgb = raw.srgb;
+    Ok((raw.into_image(), srgb))
+}
+
+/// [`read_image_raw`] on the bytes of a file.
+pub fn decode_image_raw(bytes: &[u8]) -> std::result::Result<RawImage, String> {
     if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
-        return read_exr(bytes).map(|img| (img, false));
+        let img = read_exr(bytes)?;
+        return Ok(RawImage {
+            width: img.width,
+            height: img.height,
+            channels: img.channels,
+            pixels: Pixels::F32(img.data),
+            srgb: false,
+        });
     }
     read_with_image_crate(bytes)
 }
@@ -186,7 +375,7 @@ fn read_exr(bytes: &[u8]) -> std::result::Result<Image, String> {
     })
 }
 
-fn read_with_image_crate(bytes: &[u8]) -> std::result::Result<(Image, bool), String> {
+fn read_with_image_crate(bytes: &[u8]) -> std::result::Result<RawImage, String> {
     use image::DynamicImage as D;
     use image::ImageDecoder;
     let err = |e: &dyn std::fmt::Display| format!("cannot read image: {e}");
@@ -202,39 +391,29 @@ fn read_with_image_crate(bytes: &[u8]) -> std::result::Result<(Image, bool), Str
     check_image_size(w as usize, h as usize)?;
     let dynimg = D::from_decoder(decoder).map_err(|e| err(&e))?;
     let (width, height) = (dynimg.width() as usize, dynimg.height() as usize);
-    let s8 = |v: u8| v as f32 / 255.0;
     let s16 = |v: u16| v as f32 / 65535.0;
-    let (channels, data, srgb): (usize, Vec<f32>, bool) = match &dynimg {
-        D::ImageLuma8(b) => (1, b.as_raw().iter().map(|&v| s8(v)).collect(), true),
-        D::ImageLumaA8(b) => (
-            1,
-            b.as_raw().iter().step_by(2).map(|&v| s8(v)).collect(),
-            true,
-        ),
-        D::ImageRgb8(b) => (3, b.as_raw().iter().map(|&v| s8(v)).collect(), true),
-        D::ImageRgba8(b) => (4, b.as_raw().iter().map(|&v| s8(v)).collect(), true),
-        D::ImageLuma16(b) => (1, b.as_raw().iter().map(|&v| s16(v)).collect(), true),
-        D::ImageLumaA16(b) => (
-            1,
-            b.as_raw().iter().step_by(2).map(|&v| s16(v)).collect(),
-            true,
-        ),
-        D::ImageRgb16(b) => (3, b.as_raw().iter().map(|&v| s16(v)).collect(), true),
-        D::ImageRgba16(b) => (4, b.as_raw().iter().map(|&v| s16(v)).collect(), true),
-        D::ImageRgb32F(b) => (3, b.as_raw().clone(), false),
-        D::ImageRgba32F(b) => (4, b.as_raw().clone(), false),
+    let f16 = |v: &[u16]| Pixels::F32(v.iter().map(|&v| s16(v)).collect());
+    let (channels, pixels, srgb) = match dynimg {
+        D::ImageLuma8(b) => (1, Pixels::U8(b.into_raw()), true),
+        D::ImageLumaA8(b) => (2, Pixels::U8(b.into_raw()), true),
+        D::ImageRgb8(b) => (3, Pixels::U8(b.into_raw()), true),
+        D::ImageRgba8(b) => (4, Pixels::U8(b.into_raw()), true),
+        D::ImageLuma16(b) => (1, f16(b.as_raw()), true),
+        D::ImageLumaA16(b) => (2, f16(b.as_raw()), true),
+        D::ImageRgb16(b) => (3, f16(b.as_raw()), true),
+        D::ImageRgba16(b) => (4, f16(b.as_raw()), true),
+        D::ImageRgb32F(b) => (3, Pixels::F32(b.into_raw()), false),
+        D::ImageRgba32F(b) => (4, Pixels::F32(b.into_raw()), false),
         // Any other (integer) layout: RGB, still sRGB-encoded.
-        other => (3, other.to_rgb32f().into_raw(), true),
+        other => (3, Pixels::F32(other.to_rgb32f().into_raw()), true),
     };
-    Ok((
-        Image {
-            width,
-            height,
-            channels,
-            data,
-        },
+    Ok(RawImage {
+        width,
+        height,
+        channels,
+        pixels,
         srgb,
-    ))
+    })
 }
 
 fn check_len(path: &Path, width: usize, height: usize, rgb: &[f32]) -> Result<()> {
@@ -371,6 +550,30 @@ mod tests {
         (0..w * h * 3)
             .map(|i| (i as f32 * 0.37).sin().abs() * 3.0 + 1e-3 * i as f32)
             .collect()
+    }
+
+    /// Prefetched images are the images read directly; a broken file gives the same error;
+    /// a file used twice, or not prefetched, is read directly; the guard ends the prefetch.
+    #[test]
+    fn prefetched_images_are_the_files() {
+        let (a, b, bad) = (tmp("pa.png"), tmp("pb.exr"), tmp("pbad.png"));
+        write_png(&a, 5, 3, &ramp(5, 3)).unwrap();
+        write_exr(&b, 4, 2, &ramp(4, 2)).unwrap();
+        std::fs::write(&*bad, b"\x89PNG not really").unwrap();
+        let direct: Vec<_> = [&a, &b, &bad]
+            .iter()
+            .map(|p| read_image_raw(p).map_err(|e| e.to_string()))
+            .collect();
+        {
+            let _g = prefetch([a.0.clone(), b.0.clone(), bad.0.clone(), a.0.clone()]);
+            for (p, want) in [&a, &b, &bad, &a].iter().zip(direct.iter().cycle()) {
+                let got = read_image_raw_prefetched(p).map_err(|e| e.to_string());
+                assert_eq!(&got, want, "{}", p.display());
+            }
+        }
+        assert!(PREFETCH.with(|c| c.borrow().is_none()));
+        let got = read_image_raw_prefetched(&b).map_err(|e| e.to_string());
+        assert_eq!(got, direct[1]);
     }
 
     #[test]

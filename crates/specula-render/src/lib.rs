@@ -29,5 +29,6 @@ pub mod scene;
 pub mod serialized;
 pub mod spectral;
 pub mod texture;
+pub mod timings;
 pub mod volpath;
 pub mod xml;

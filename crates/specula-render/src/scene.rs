@@ -294,9 +294,12 @@ impl Scene {
         overrides: &[(String, String)],
         opts: &LoadOptions,
     ) -> Result<Scene> {
+        let parse = crate::timings::span(crate::timings::Phase::Parse);
         let mut root = crate::xml::load_scene(path, overrides)?;
+        drop(parse);
         opts.apply(&mut root)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let _images = crate::image_io::prefetch(crate::texture::scene_images(&root, &base));
         Builder {
             base,
             ids: HashMap::new(),
@@ -599,7 +602,9 @@ impl Builder {
             .map(|(i, _)| i as u32)
             .collect();
         parts.media.check_integrator(root)?;
+        let bvh = crate::timings::span(crate::timings::Phase::Bvh);
         let accel = Bvh::build(&parts.geometry);
+        drop(bvh);
         Ok(Scene {
             geometry: parts.geometry,
             shape_bsdf: parts.shape_bsdf,
@@ -736,6 +741,7 @@ impl Builder {
     }
 
     fn texture(&self, n: &Node) -> Result<Arc<dyn Texture>> {
+        let _t = crate::timings::span(crate::timings::Phase::Textures);
         let to_uv = n.transform("to_uv")?.unwrap_or(Mat4::IDENTITY);
         let t: Arc<dyn Texture> = match n.plugin_type.as_str() {
             "checkerboard" => {
@@ -793,6 +799,7 @@ impl Builder {
 
     /// Convert an XML BSDF node into the material library's parameters and build it.
     fn bsdf(&self, n: &Node) -> Result<Bsdf> {
+        let _t = crate::timings::span(crate::timings::Phase::Bsdfs);
         let mut props = Props::new(n.plugin_type.clone(), loc_str(&n.loc));
         for p in &n.props {
             let v = match &p.value {
@@ -961,6 +968,7 @@ impl Builder {
     }
 
     fn emitter(&self, n: &Node) -> Result<Emitter> {
+        let _t = crate::timings::span(crate::timings::Phase::Emitters);
         let textures = self.emitter_textures(n)?;
         Emitter::from_node_textured(n, &self.base, &textures)
     }
@@ -1041,6 +1049,7 @@ impl Builder {
         let flip = n.bool("flip_normals", false)?;
         let geom = match n.plugin_type.as_str() {
             "obj" | "ply" | "serialized" => {
+                let _t = crate::timings::span(crate::timings::Phase::Meshes);
                 let file = n.string_opt("filename")?.ok_or_else(|| SceneError::new(Some(n.loc.clone()), format!("{} needs 'filename'", n.plugin_type)))?;
                 let face_normals = n.bool("face_normals", false)?;
                 let path = self.resolve_from(&n.loc, &file);

@@ -9,7 +9,10 @@
 //!   interpolate between pixel centres (`uv·res − ½`), nearest lookups take `⌊uv·res⌋`, and the
 //!   wrap mode is applied to the integer texel indices.
 //! - 8-bit sRGB data is converted to linear *per texel, before* interpolation (unless `raw`);
-//!   data is stored as f32 (no half-float rounding is visible in 3.9.1's lookups).
+//!   the values are those of f32 data (no half-float rounding is visible in 3.9.1's lookups).
+//!   8-bit images keep their bytes and each lookup converts its texels through a 256-entry
+//!   table (the same values as converting up front, at a quarter of the memory and no
+//!   conversion pass at load); other images are stored as f32.
 //! - `eval_1` of an RGB bitmap is the luminance (Rec. 709 weights) of the interpolated colour.
 //! - `eval_1_grad` of a bitmap (what `bumpmap` uses) is the exact (u, v) derivative of the
 //!   bilinear interpolant of the texels' scalar values, zero with nearest filtering; textures
@@ -18,7 +21,8 @@
 //!   attribute through the shading point (see [`MeshAttributeTexture`]).
 
 use crate::core::{Result, SceneError};
-use crate::image_io::{read_image, srgb_to_linear, Image};
+use crate::image_io::{read_image_raw_prefetched, srgb_to_linear, Image, Pixels, RawImage};
+use crate::xml::{Node, PropValue};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use specula_bsdf::{Rgb, ShadingPoint, Texture};
 use std::path::Path;
@@ -159,6 +163,45 @@ impl WrapMode {
     }
 }
 
+/// Texel storage: bytes with the table of their linear values, or linear f32 values.
+#[derive(Clone, Debug)]
+enum Texels {
+    U8(Vec<u8>, &'static [f32; 256]),
+    F32(Vec<f32>),
+}
+
+/// Keeps the first `keep` of every `stride` values and doubles a single column or row (what
+/// Mitsuba's upsampling of images narrower than 2 texels yields); returns the new size.
+fn compact<T: Copy>(
+    data: &mut Vec<T>,
+    stride: usize,
+    keep: usize,
+    (width, height): (usize, usize),
+) -> (usize, usize) {
+    if stride != keep {
+        let n = data.len() / stride;
+        for i in 0..n {
+            for c in 0..keep {
+                data[i * keep + c] = data[i * stride + c];
+            }
+        }
+        data.truncate(n * keep);
+    }
+    let (mut width, mut height) = (width, height);
+    if width == 1 {
+        *data = data
+            .chunks_exact(keep)
+            .flat_map(|p| p.iter().chain(p.iter()).copied().collect::<Vec<_>>())
+            .collect();
+        width = 2;
+    }
+    if height == 1 {
+        *data = data.iter().chain(data.iter()).copied().collect();
+        height = 2;
+    }
+    (width, height)
+}
+
 /// Mitsuba's `bitmap` texture: 1- or 3-channel linear data (RGBA loses its alpha, grey+alpha
 /// its alpha).
 #[derive(Clone, Debug)]
@@ -167,8 +210,8 @@ pub struct Bitmap {
     pub height: usize,
     /// 1 or 3.
     pub channels: usize,
-    /// Linear values, row-major, top row first.
-    pub data: Vec<f32>,
+    /// The texels, row-major, top row first, `channels` values each.
+    texels: Texels,
     pub filter: FilterType,
     pub wrap: WrapMode,
     pub to_uv: Mat3,
@@ -191,18 +234,46 @@ impl Bitmap {
                 format!("invalid wrap_mode \"{wrap}\" (repeat, mirror, clamp)"),
             )
         })?;
-        let (img, srgb) = read_image(path)?;
+        let img = read_image_raw_prefetched(path)?;
         if img.width == 0 || img.height == 0 {
             return Err(SceneError::file(path, "image is empty"));
         }
-        Ok(Self::from_image(
-            &img,
-            srgb,
-            f,
-            w,
-            raw,
-            uv_transform(&to_uv),
-        ))
+        Ok(Self::from_raw(img, f, w, raw, uv_transform(&to_uv)))
+    }
+
+    /// Builds the texture from decoded data as stored ([`RawImage`]): 8-bit data keeps its
+    /// bytes; sRGB-encoded values are linearised unless `raw`.
+    pub fn from_raw(
+        img: RawImage,
+        filter: FilterType,
+        wrap: WrapMode,
+        raw: bool,
+        to_uv: Mat3,
+    ) -> Self {
+        let channels = if img.channels >= 3 { 3 } else { 1 };
+        let linearise = img.srgb && !raw;
+        let size = (img.width, img.height);
+        let (texels, (width, height)) = match img.pixels {
+            Pixels::U8(mut v) => {
+                let size = compact(&mut v, img.channels, channels, size);
+                let table = if linearise {
+                    crate::image_io::srgb8_to_linear()
+                } else {
+                    crate::image_io::unorm8()
+                };
+                (Texels::U8(v, table), size)
+            }
+            Pixels::F32(mut v) => {
+                let size = compact(&mut v, img.channels, channels, size);
+                if linearise {
+                    for x in &mut v {
+                        *x = srgb_to_linear(*x);
+                    }
+                }
+                (Texels::F32(v), size)
+            }
+        };
+        Self::with_texels(texels, width, height, channels, filter, wrap, to_uv)
     }
 
     /// Builds the texture from decoded data; `srgb` says the values are sRGB-encoded, which
@@ -223,25 +294,49 @@ impl Bitmap {
                 data.push(if linearise { srgb_to_linear(v) } else { v });
             }
         }
-        let (mut width, mut height) = (img.width, img.height);
-        // Mitsuba upsamples images narrower than 2 texels; a constant row/column is what that
-        // yields for a single texel.
-        if width == 1 {
-            data = data
-                .chunks_exact(channels)
-                .flat_map(|p| p.iter().chain(p.iter()).copied().collect::<Vec<_>>())
-                .collect();
-            width = 2;
-        }
-        if height == 1 {
-            data = data.iter().chain(data.iter()).copied().collect();
-            height = 2;
-        }
+        let (width, height) = compact(&mut data, channels, channels, (img.width, img.height));
+        Self::with_texels(
+            Texels::F32(data),
+            width,
+            height,
+            channels,
+            filter,
+            wrap,
+            to_uv,
+        )
+    }
+
+    fn with_texels(
+        texels: Texels,
+        width: usize,
+        height: usize,
+        channels: usize,
+        filter: FilterType,
+        wrap: WrapMode,
+        to_uv: Mat3,
+    ) -> Self {
         let n = (width * height) as f64;
         let mut sum = [0f64; 3];
-        for px in data.chunks_exact(channels) {
-            for c in 0..3 {
-                sum[c] += px[c.min(channels - 1)] as f64;
+        match &texels {
+            Texels::F32(data) => {
+                for px in data.chunks_exact(channels) {
+                    for (c, s) in sum.iter_mut().enumerate() {
+                        *s += px[c.min(channels - 1)] as f64;
+                    }
+                }
+            }
+            Texels::U8(data, table) => {
+                // a histogram per channel, then the sum of its values (exact in f64)
+                let mut hist = vec![[0u64; 256]; channels];
+                for px in data.chunks_exact(channels) {
+                    for (c, &b) in px.iter().enumerate() {
+                        hist[c][b as usize] += 1;
+                    }
+                }
+                for (c, s) in sum.iter_mut().enumerate() {
+                    let h = &hist[c.min(channels - 1)];
+                    *s = (0..256).map(|k| h[k] as f64 * table[k] as f64).sum();
+                }
             }
         }
         let mean = Rgb::new(
@@ -253,7 +348,7 @@ impl Bitmap {
             width,
             height,
             channels,
-            data,
+            texels,
             filter,
             wrap,
             to_uv,
@@ -264,10 +359,21 @@ impl Bitmap {
     #[inline]
     fn texel(&self, x: usize, y: usize) -> Rgb {
         let i = (y * self.width + x) * self.channels;
-        if self.channels == 1 {
-            Rgb::splat(self.data[i])
-        } else {
-            Rgb::new(self.data[i], self.data[i + 1], self.data[i + 2])
+        match &self.texels {
+            Texels::U8(d, t) => {
+                if self.channels == 1 {
+                    Rgb::splat(t[d[i] as usize])
+                } else {
+                    Rgb::new(t[d[i] as usize], t[d[i + 1] as usize], t[d[i + 2] as usize])
+                }
+            }
+            Texels::F32(d) => {
+                if self.channels == 1 {
+                    Rgb::splat(d[i])
+                } else {
+                    Rgb::new(d[i], d[i + 1], d[i + 2])
+                }
+            }
         }
     }
 
@@ -377,6 +483,35 @@ impl Bitmap {
             (m.y_axis.x * dx + m.y_axis.y * dy) * self.height as f32,
         )
     }
+}
+
+/// The image files a scene reads (bitmap textures, environment maps), resolved as the loader
+/// resolves them, for [`crate::image_io::prefetch`]; `base` is the scene file's folder.
+pub fn scene_images(root: &Node, base: &Path) -> Vec<std::path::PathBuf> {
+    fn walk(n: &Node, base: &Path, out: &mut Vec<std::path::PathBuf>) {
+        let file = n.props.iter().find_map(|p| match (&p.name[..], &p.value) {
+            ("filename", PropValue::Str(f)) => Some(Path::new(f)),
+            _ => None,
+        });
+        if let Some(f) = file {
+            match (n.tag.as_str(), n.plugin_type.as_str()) {
+                ("texture", "bitmap") if f.is_relative() => {
+                    // as the scene's resolve_from: the declaring file's folder, then `base`
+                    let near = Path::new(&n.loc.file).parent().map(|d| d.join(f));
+                    out.push(near.filter(|p| p.exists()).unwrap_or_else(|| base.join(f)));
+                }
+                ("emitter", "envmap") => out.push(base.join(f)),
+                ("texture", "bitmap") => out.push(f.to_path_buf()),
+                _ => {}
+            }
+        }
+        for c in &n.children {
+            walk(c, base, out);
+        }
+    }
+    let mut out = vec![];
+    walk(root, base, &mut out);
+    out
 }
 
 /// Mitsuba's `mesh_attribute`: a vertex or face attribute of the mesh that was hit (`name` =
@@ -723,6 +858,50 @@ mod tests {
             [0.164127, 0.924209, 0.0451862],
             1e-4
         ));
+    }
+
+    /// 8-bit images keep their bytes: every lookup, gradient and mean equals that of the
+    /// same image converted to f32 up front (the way Bitmap::from_image stores it).
+    #[test]
+    fn byte_texels_equal_float_texels() {
+        let mut seed = 7u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 24) as u8
+        };
+        // (width, height, stored channels): RGBA, grey+alpha, grey, RGB; a single row and a
+        // single column are doubled
+        for (w, h, c) in [(5, 3, 4), (4, 4, 2), (3, 1, 1), (1, 4, 3), (7, 5, 3)] {
+            let bytes: Vec<u8> = (0..w * h * c).map(|_| next()).collect();
+            for srgb in [true, false] {
+                for raw in [true, false] {
+                    let r = RawImage {
+                        width: w,
+                        height: h,
+                        channels: c,
+                        pixels: Pixels::U8(bytes.clone()),
+                        srgb,
+                    };
+                    let f = r.clone().into_image();
+                    let m = uv_transform(&Mat4::from_rotation_z(0.3));
+                    for filter in [FilterType::Bilinear, FilterType::Nearest] {
+                        let a = Bitmap::from_raw(r.clone(), filter, WrapMode::Mirror, raw, m);
+                        let b = Bitmap::from_image(&f, srgb, filter, WrapMode::Mirror, raw, m);
+                        assert!(matches!(a.texels, Texels::U8(..)));
+                        assert_eq!(
+                            (a.width, a.height, a.channels),
+                            (b.width, b.height, b.channels)
+                        );
+                        assert_eq!(a.mean, b.mean, "{w}×{h}×{c}");
+                        for i in 0..50 {
+                            let uv = Vec2::new(i as f32 * 0.071 - 0.9, i as f32 * 0.043 - 0.4);
+                            assert_eq!(a.lookup(uv), b.lookup(uv), "{w}×{h}×{c} {uv}");
+                            assert_eq!(a.gradient(uv), b.gradient(uv), "{w}×{h}×{c} {uv}");
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]

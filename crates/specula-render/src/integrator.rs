@@ -42,6 +42,7 @@ use crate::scene::{Light, Scene};
 use crate::spectral::{emission, infinite_emission};
 use crate::xml::Node;
 use glam::{Vec2, Vec3};
+use specula_bsdf::spectral::dispersion::collapse_dead_channels;
 use specula_bsdf::{BsdfContext, BsdfModel, Rgb, Wavelengths};
 
 use crate::accel::{offset_ray_origin, SHADOW_EPSILON};
@@ -293,6 +294,10 @@ impl Scene {
         counters: &mut Counters,
         wl: Option<&Wavelengths>,
     ) -> Rgb {
+        // The wavelengths the rest of the path is shaded at: after a dispersive Dirac refraction
+        // keeps one channel, the dead ones take its wavelength (see `collapse_dead_channels`),
+        // so later dispersive interfaces do not split the path again. The film keeps `wl`.
+        let mut wl_path = wl.copied();
         let ctx = BsdfContext::RADIANCE;
         let mut result = Rgb::ZERO;
         let mut throughput = Rgb::ONE;
@@ -310,6 +315,7 @@ impl Scene {
         counters.rays += 1;
         let mut next = hit;
         loop {
+            let wl = wl_path.as_ref();
             let hit = next;
             let show_emitters = depth > 0 || !settings.hide_emitters;
             let Some(hit) = hit else {
@@ -403,6 +409,9 @@ impl Scene {
             };
             let d = si.sh_frame.to_world(bs.wo).normalize();
             throughput *= bs.weight;
+            if let Some(w) = wl_path.as_mut() {
+                collapse_dead_channels(w, throughput.0);
+            }
             eta *= bs.eta;
             prev_bsdf_pdf = bs.pdf;
             prev_bsdf_delta = bs.lobe.is_delta();

@@ -31,6 +31,13 @@ $S brdf plot "$P" -o docs/principled_lobe.png
 $S brdf albedo "$P" -o docs/principled_albedo.png >/dev/null
 $S brdf plot "$PT" -o docs/principledthin_lobe.png
 $S brdf albedo "$PT" -o docs/principledthin_albedo.png >/dev/null
+$S gallery --no-presets --quiet --columns 2 --size 200 -o docs/multiscatter.png \
+    "roughconductor alpha=0.8 material=Au distribution=ggx" \
+    "roughconductor multiscatter=true alpha=0.8 material=Au distribution=ggx" \
+    "roughdielectric alpha=1 int_ior=1.5 distribution=ggx" \
+    "roughdielectric multiscatter=true alpha=1 int_ior=1.5 distribution=ggx" \
+    "principled metallic=1 roughness=0.9 base_color=0.9,0.6,0.2" \
+    "principled multiscatter=true metallic=1 roughness=0.9 base_color=0.9,0.6,0.2"
 $S phase plot hg --g 0.2,0.6,0.9,-0.4 rayleigh --log -o docs/phase.png
 $S gallery --quiet -o docs/gallery.png "$SHARED/data/merl/mitsuba_rough_copper.binary" \
     "$SHARED/data/rgl/acrylic_felt_green_rgb.bsdf"

@@ -116,6 +116,9 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 use std::sync::{Arc, Mutex, OnceLock};
 
+pub mod lobe;
+pub use lobe::{lobe_table, LobeTable};
+
 /// Nodes of the tables over t = √μ.
 pub const MU_RES: usize = 32;
 /// Nodes of the tables over α ∈ [0, 1] (for textured or anisotropic roughness).
@@ -818,6 +821,27 @@ impl ConductorTables {
 #[derive(Clone, Copy, Debug)]
 pub struct TableNode([f32; NC]);
 
+/// The quantities C(μ) is linear in, for any Fresnel fit: D_k = E_corr,k − E_ss,k, and
+/// X_kj = M_k esc_kj, Y_kj = M_k cont_kj ([`ConductorMs::combine`]).
+pub const NQ: usize = NB + 2 * NB * NB;
+
+impl TableNode {
+    /// The components of [`NQ`] at this node.
+    pub fn components(&self) -> [f32; NQ] {
+        let n = &self.0;
+        let mut q = [0.0f32; NQ];
+        for k in 0..NB {
+            q[k] = n[CORR + k] - n[SS + k];
+            let reach = n[FIRST + k] - n[CORR + k];
+            for j in 0..NB {
+                q[NB + k * NB + j] = reach * n[ESC + k * NB + j];
+                q[NB + NB * NB + k * NB + j] = reach * n[CONT + k * NB + j];
+            }
+        }
+        q
+    }
+}
+
 /// The colour of a conductor's compensation at one roughness: C(μ) per channel is the exact
 /// first-order difference (height-correlated minus separable single scattering) plus the
 /// energy reaching a second bounce times what leaves after it (the second bounce's Fresnel and
@@ -852,10 +876,52 @@ impl ConductorMs {
         total.map(|v| v.max(0.0))
     }
 
+    /// Σ_k c_k D_k + Σ_kj c_k c_j (X_kj + R₃ Y_kj) of components (or of their integrals)
+    /// [`NQ`]: C(μ) of a node's components, without the clamp of [`Self::energy`].
+    #[inline]
+    pub fn combine(&self, q: &[f32; NQ]) -> Spectrum {
+        let c = &self.c;
+        let mut total = Spectrum::ZERO;
+        for k in 0..NB {
+            let mut after = Spectrum::ZERO;
+            for j in 0..NB {
+                after += c[j]
+                    * (self.r3 * q[NB + NB * NB + k * NB + j]
+                        + Spectrum::splat(q[NB + k * NB + j]));
+            }
+            total += c[k] * (after + Spectrum::splat(q[k]));
+        }
+        total
+    }
+
+    /// The lobe with the measured shape Ŝ ([`lobe`]): C(μi) C(μo) Ŝ / √(ρ(μi) ρ(μo)), where
+    /// ρ(μ) = ∫ C(μo) Ŝ(μ, ωo) μo dωo is the row integral of C_o Ŝ ([`LobeTable::rho`]):
+    /// symmetric, and integrating to C(μi) to the extent that ρ varies slowly over the lobe
+    /// (for a white conductor ρ = 1 − E_avg and the integral is exact).
+    #[inline]
+    pub fn lobe_measured(
+        &self,
+        c_i: Spectrum,
+        c_o: Spectrum,
+        shape: f32,
+        rho_i: Spectrum,
+        rho_o: Spectrum,
+    ) -> Spectrum {
+        let r = rho_i * rho_o;
+        c_i * c_o * r.map(|v| if v > 1e-12 { shape / v.sqrt() } else { 0.0 })
+    }
+
     /// The lobe C(μi) C(μo) / (π C_avg) (without cosine): symmetric, and integrating to C(μi).
     #[inline]
     pub fn lobe(&self, c_i: Spectrum, c_o: Spectrum) -> Spectrum {
-        let inv = self.avg.map(|v| if v > 1e-6 { FRAC_1_PI / v } else { 0.0 });
+        self.lobe_shaped(c_i, c_o, FRAC_1_PI)
+    }
+
+    /// The lobe C(μi) C(μo) Ŝ / C_avg with the tabulated shape Ŝ ([`lobe`]) in place of
+    /// Kulla–Conty's 1/π.
+    #[inline]
+    pub fn lobe_shaped(&self, c_i: Spectrum, c_o: Spectrum, shape: f32) -> Spectrum {
+        let inv = self.avg.map(|v| if v > 1e-6 { shape / v } else { 0.0 });
         c_i * c_o * inv
     }
 }
@@ -916,6 +982,7 @@ pub fn table_alpha(alpha_u: f32, alpha_v: f32) -> f32 {
 /// Fresnel-average rule), so that evaluation never initialises (allocates) anything.
 pub fn prepare_conductor(kind: MicrofacetType) {
     conductor_tables(kind);
+    lobe_table(kind);
     conductor_fresnel_avg(Spectrum::splat(1.0), Spectrum::splat(1.0));
 }
 

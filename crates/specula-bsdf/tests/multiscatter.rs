@@ -466,3 +466,36 @@ fn timing() {
         }
     }
 }
+
+/// Regenerates `crates/specula-bsdf/src/multiscatter/lobe.bin`, the measured shape of the
+/// conductor compensation lobe (`specula_bsdf::multiscatter::lobe`): white random walks at
+/// fixed seeds, deterministic (`-- --ignored generate_lobe_table --nocapture`; several
+/// minutes of one core per distribution). `SPECULA_LOBE_WALKS` overrides the walks per row.
+#[test]
+#[ignore]
+fn generate_lobe_table() {
+    use specula_bsdf::microfacet::MicrofacetType;
+    use specula_bsdf::multiscatter::lobe::{encode_lobe_tables, lobe_joint_from_walk};
+    let walks = std::env::var("SPECULA_LOBE_WALKS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(LOBE_WALKS);
+    let mut joints = Vec::new();
+    for kind in [MicrofacetType::Ggx, MicrofacetType::Beckmann] {
+        let t = std::time::Instant::now();
+        let (j, asym) = lobe_joint_from_walk(kind, walks);
+        println!(
+            "{kind:?}: {walks} walks per row in {:.1} s; asymmetry before symmetrising per α node {:.4?}",
+            t.elapsed().as_secs_f64(),
+            asym
+        );
+        joints.push(j);
+    }
+    let bytes = encode_lobe_tables([&joints[0], &joints[1]]);
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/src/multiscatter/lobe.bin");
+    std::fs::write(path, &bytes).unwrap();
+    println!("wrote {path} ({} bytes)", bytes.len());
+}
+
+/// Walks per (roughness node, μi bin) of the committed `lobe.bin`.
+const LOBE_WALKS: usize = 400_000;

@@ -75,7 +75,7 @@ impl MicrosurfaceWalk {
     }
 
     /// Smith's Λ of direction `w` (signed: Λ(−w) = −1 − Λ(w)).
-    fn lambda(&self, w: DVec3) -> f64 {
+    pub fn lambda(&self, w: DVec3) -> f64 {
         if w.z > 0.999_999 {
             return 0.0;
         }

@@ -12,12 +12,14 @@ use crate::bsdf::*;
 use crate::frame::reflect;
 use crate::fresnel::fresnel_conductor_rgb;
 use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
+use crate::multiscatter::lobe::LOBE_MU;
 use crate::multiscatter::{
-    conductor_tables, conductor_tables_aniso, folded_phi, table_alpha, ConductorMs,
-    ConductorTables, FresnelFit,
+    conductor_tables, conductor_tables_aniso, folded_phi, lobe_table, table_alpha, ConductorMs,
+    ConductorTables, FresnelFit, LobeTable,
 };
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
 
 #[derive(Clone, Debug)]
@@ -36,8 +38,15 @@ pub struct RoughConductor {
     /// The Fresnel fit of the compensation ([`FresnelFit::conductor`]) when `eta`, `k` and
     /// `specular_reflectance` are constant (see [`RoughConductor::with_multiscatter`]);
     /// computed per evaluation otherwise.
-    /// With it, the compensation's colour when the roughness is constant too.
-    pub ms_f_avg: Option<(FresnelFit, Option<ConductorMs>)>,
+    /// With it, the compensation's colour when the roughness is constant too, and then, for
+    /// an isotropic roughness, the measured lobe's row integrals ρ per μ bin made exact
+    /// ([`crate::multiscatter::LobeTable::rho_bins`]).
+    #[allow(clippy::type_complexity)]
+    pub ms_f_avg: Option<(
+        FresnelFit,
+        Option<ConductorMs>,
+        Option<Arc<[Spectrum; LOBE_MU]>>,
+    )>,
     /// The tables of a constant anisotropic roughness (built by `with_multiscatter`).
     pub ms_aniso: Option<Arc<ConductorTables>>,
 }
@@ -71,17 +80,23 @@ impl RoughConductor {
                     }
                     _ => None,
                 };
-                Some((fit, ms))
+                let rho = match (&ms, &self.alpha_u, &self.alpha_v, &self.ms_aniso) {
+                    (Some(ms), FloatParam::Const(u), FloatParam::Const(v), None) => Some(Arc::new(
+                        lobe_table(self.distribution).rho_bins(table_alpha(*u, *v), ms),
+                    )),
+                    _ => None,
+                };
+                Some((fit, ms, rho))
             }
             _ => None,
         };
         self
     }
 
-    /// The compensation lobe (without cosine) and the white energy it adds for `wi`,
-    /// 1 − E(μi) (the probability of sampling it).
+    /// The compensation lobe (without cosine), the white energy it adds for `wi`, 1 − E(μi)
+    /// (the probability of sampling it), and the density of its sampling at `wo`.
     #[inline]
-    fn ms_lobe(&self, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
+    fn ms_lobe(&self, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32, f32) {
         let (t, xi, xo, a) = match &self.ms_aniso {
             Some(t) => (&**t, folded_phi(wi), folded_phi(wo), 0.0),
             None => {
@@ -89,13 +104,26 @@ impl RoughConductor {
                 (conductor_tables(self.distribution), a, a, a)
             }
         };
-        let ms = match self.ms_f_avg.filter(|_| sp.wavelengths.is_none()) {
-            Some((_, Some(ms))) => ms,
-            _ => t.ms(a, &self.ms_fit(sp)),
+        let (ms, rho) = match self.ms_f_avg.as_ref().filter(|_| sp.wavelengths.is_none()) {
+            Some((_, Some(ms), rho)) => (*ms, rho.as_deref()),
+            _ => (t.ms(a, &self.ms_fit(sp)), None),
         };
         let c_i = ms.energy(&t.at(xi, wi.z));
         let c_o = ms.energy(&t.at(xo, wo.z));
-        (ms.lobe(c_i, c_o), 1.0 - t.e(xi, wi.z))
+        // the measured shape (isotropic roughness), or Kulla–Conty's 1/π, cosine-sampled
+        let (lobe, pdf) = match &self.ms_aniso {
+            Some(_) => (ms.lobe(c_i, c_o), wo.z * FRAC_1_PI),
+            None => {
+                let lt = lobe_table(self.distribution);
+                let (shape, pdf) = lt.eval(a, wi, wo);
+                let (r_i, r_o) = match rho {
+                    Some(r) => (r[LobeTable::bin(wi.z)], r[LobeTable::bin(wo.z)]),
+                    None => (lt.rho(a, wi.z, &ms), lt.rho(a, wo.z, &ms)),
+                };
+                (ms.lobe_measured(c_i, c_o, shape, r_i, r_o), pdf)
+            }
+        };
+        (lobe, 1.0 - t.e(xi, wi.z), pdf)
     }
 
     /// The white energy the compensation adds for `wi`: 1 − E(μi).
@@ -113,8 +141,8 @@ impl RoughConductor {
 
     #[inline]
     fn ms_fit(&self, sp: &ShadingPoint) -> FresnelFit {
-        match self.ms_f_avg.filter(|_| sp.wavelengths.is_none()) {
-            Some((f, _)) => f,
+        match self.ms_f_avg.as_ref().filter(|_| sp.wavelengths.is_none()) {
+            Some((f, _, _)) => *f,
             None => FresnelFit::conductor(
                 self.eta.eval(sp),
                 self.k.eval(sp),
@@ -150,17 +178,22 @@ impl RoughConductor {
     /// `eval_pdf` with the compensation lobe (wi, wo above the surface).
     fn eval_pdf_ms(&self, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> (Spectrum, f32) {
         let (v, p) = self.eval_pdf_ss(sp, wi, wo);
-        let (lobe, p_ms) = self.ms_lobe(sp, wi, wo);
-        (
-            v + lobe,
-            (1.0 - p_ms) * p + p_ms * wo.z * std::f32::consts::FRAC_1_PI,
-        )
+        let (lobe, p_ms, pdf_ms) = self.ms_lobe(sp, wi, wo);
+        (v + lobe, (1.0 - p_ms) * p + p_ms * pdf_ms)
     }
 
     fn sample_ms(&self, sp: &ShadingPoint, wi: Vec3, u1: f32, u2: Vec2) -> Option<BsdfSample> {
         let p_ms = self.ms_white(sp, wi);
         let wo = if u1 < p_ms {
-            crate::warp::square_to_cosine_hemisphere(u2)
+            match &self.ms_aniso {
+                Some(_) => crate::warp::square_to_cosine_hemisphere(u2),
+                None => lobe_table(self.distribution).sample(
+                    table_alpha(self.alpha_u.eval(sp), self.alpha_v.eval(sp)),
+                    wi,
+                    u1 / p_ms,
+                    u2,
+                ),
+            }
         } else {
             let (m, pdf_m) = self.distr(sp).sample(wi, u2);
             let wo = reflect(wi, m);

@@ -1,0 +1,566 @@
+//! The shape of the conductor compensation lobe, measured from Heitz et al.'s random walk.
+//!
+//! Kulla and Conty's lobe (1 − E(μi))(1 − E(μo)) / (π (1 − E_avg)) is separable and
+//! diffuse-like, whereas the energy the single-scattering model misses leaves the surface
+//! around the specular direction at grazing incidence. Specula keeps Kulla and Conty's
+//! factors and replaces their constant 1/π by a tabulated symmetric shape Ŝ:
+//!
+//! f_ms(ωi, ωo) = (1 − E(μi)) (1 − E(μo)) Ŝ(α; μi, μo, Δφ) / (1 − E_avg)
+//!
+//! with Ŝ piecewise constant over [`LOBE_MU`] bins in √μ for each of μi and μo and
+//! [`LOBE_PHI`] bins of the azimuth difference Δφ ∈ [0, π], at [`LOBE_ALPHAS`] roughness nodes
+//! uniform in √α (every second node of the albedo tables), interpolated linearly between them
+//! (Ŝ ≡ 1/π is Kulla and Conty's lobe).
+//!
+//! **Measurement** ([`lobe_joint_from_walk`], run once by the ignored test
+//! `generate_lobe_table` of `tests/multiscatter.rs`, which writes `lobe.bin` next to this
+//! file): white walks from μi distributed ∝ μ within each bin (cosine-weighted incidence), at
+//! fixed seeds; every walk that scatters twice or more counts with weight 1, a walk that
+//! escapes after its first bounce with weight ΛiΛo / ((1 + Λi)(1 + Λo)) = 1 − G1(ωi)G1(ωo)/G2
+//! (the part of the walk's height-correlated single scattering that the model's separable
+//! G1·G1 misses). The histogram is thus the exact deficit lobe f_walk − f_ss in expectation;
+//! weighted by the incident bin's projected solid angle it is a joint distribution of (μi,
+//! μo, Δφ) which reciprocity makes symmetric, and it is symmetrised. The file stores it per
+//! roughness node as 16-bit square roots of the upper triangle (≈ 55 KB per distribution).
+//!
+//! **Normalisation** ([`LobeTable`], built on first use from that file and the albedo table):
+//! Ŝ = joint / (m_i m_b A_c), with m_b = ∫ (1 − E(μ)) μ dμ over μ bin b and A_c = 2π/[`LOBE_PHI`]
+//! the azimuth measure of a folded Δφ bin, blended with 1 % of Kulla–Conty's 1/π (so that the
+//! lobe is positive everywhere), then scaled symmetrically, Ŝ_ibc ← d_i Ŝ_ibc d_b (Sinkhorn
+//! iteration), until every row integrates to 1 − E_avg: Σ_bc Ŝ_ibc m_b A_c = 1 − E_avg. At a
+//! roughness node the lobe then returns exactly 1 − E(μi) for every μi (within a bin the
+//! factor 1 − E(μi) follows E continuously), and it is symmetric in (ωi, ωo) (reciprocal).
+//! Between roughness nodes the normalisation holds to second order (furnace tests).
+//!
+//! **Sampling**: a roughness node with probability ∝ its weight × its row total Z, a cell
+//! (μ bin, Δφ bin) from the row's discrete distribution ∝ Ŝ M_b A_c (M_b = ∫ μ dμ over the bin),
+//! μ ∝ μ within the bin and Δφ uniform within the cell (either sign): the density of what is
+//! sampled is exactly Ŝ(α; μi, μo, Δφ) μo / Z(α, μi), which the model reports.
+
+use super::{alpha_node, gauss_legendre, parallel_rows, ConductorMs, ConductorTables, NQ};
+use crate::microfacet::MicrofacetType;
+use crate::spectrum::Spectrum;
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, PI};
+use std::sync::OnceLock;
+
+/// Roughness nodes, uniform in √α on [0, 1] (node k is node 2k of the albedo tables).
+pub const LOBE_ALPHAS: usize = 17;
+/// Bins of μ (uniform in √μ), for μi and μo.
+pub const LOBE_MU: usize = 16;
+/// Bins of the azimuth difference Δφ ∈ [0, π].
+pub const LOBE_PHI: usize = 12;
+const ROW: usize = LOBE_MU * LOBE_PHI;
+const SLICE: usize = LOBE_MU * ROW;
+/// Weight of Kulla–Conty's constant shape blended into the measured one.
+const KC_BLEND: f64 = 0.01;
+
+/// The μ bin of a cosine.
+#[inline]
+fn mu_bin(mu: f32) -> usize {
+    ((mu.clamp(0.0, 1.0).sqrt() * LOBE_MU as f32) as usize).min(LOBE_MU - 1)
+}
+
+/// The μ range of bin `b`.
+fn mu_edges(b: usize) -> (f64, f64) {
+    let t0 = b as f64 / LOBE_MU as f64;
+    let t1 = (b + 1) as f64 / LOBE_MU as f64;
+    (t0 * t0, t1 * t1)
+}
+
+/// ∫ μ dμ over bin `b`.
+fn bin_m(b: usize) -> f64 {
+    let (a, c) = mu_edges(b);
+    0.5 * (c * c - a * a)
+}
+
+/// Azimuth measure of a folded Δφ bin (both signs).
+const A_C: f64 = 2.0 * std::f64::consts::PI / LOBE_PHI as f64;
+
+/// The cosine and sine of the azimuth of `w` ((1, 0) when it has none).
+#[inline]
+fn azimuth(w: Vec3) -> (f32, f32) {
+    let l2 = w.x * w.x + w.y * w.y;
+    if l2 > 1e-20 {
+        let inv = l2.sqrt().recip();
+        (w.x * inv, w.y * inv)
+    } else {
+        (1.0, 0.0)
+    }
+}
+
+/// The Δφ bin of (wi, wo).
+#[inline]
+fn phi_bin(wi: Vec3, wo: Vec3) -> usize {
+    let (ci, si) = azimuth(wi);
+    let (co, so) = azimuth(wo);
+    let cos = (ci * co + si * so).clamp(-1.0, 1.0);
+    ((cos.acos() * (LOBE_PHI as f32 * FRAC_1_PI)) as usize).min(LOBE_PHI - 1)
+}
+
+/// The symmetrised joint distribution of the white conductor's deficit lobe (see the module)
+/// per roughness node, `LOBE_ALPHAS × LOBE_MU × LOBE_MU × LOBE_PHI` values (node 0, a smooth
+/// surface, is all zero), from `walks` walks per (roughness node, μi bin), fixed seeds.
+/// Also returns the relative asymmetry of the unsymmetrised estimate (Σ|J − Jᵀ| / 2ΣJ) per
+/// node, a check of the walk's reciprocity and of the estimate's noise.
+pub fn lobe_joint_from_walk(kind: MicrofacetType, walks: usize) -> (Vec<f64>, Vec<f64>) {
+    use crate::models::microsurface_walk::{MicrosurfaceWalk, WalkMaterial};
+    let rows = parallel_rows((LOBE_ALPHAS - 1) * LOBE_MU, |n| {
+        let (a, i) = (n / LOBE_MU + 1, n % LOBE_MU);
+        let alpha = alpha_node(a, LOBE_ALPHAS);
+        let walk = MicrosurfaceWalk::new(
+            kind,
+            alpha,
+            alpha,
+            WalkMaterial::Conductor {
+                eta: crate::spectrum::Spectrum::splat(0.0),
+                k: crate::spectrum::Spectrum::splat(1.0),
+                reflectance: crate::spectrum::Spectrum::splat(1.0),
+            },
+        );
+        let mut rng = crate::rng::Pcg32::new(n as u64 + 1, 0x6c6f6265);
+        let (m0, m1) = mu_edges(i);
+        let mut h = vec![0.0f64; ROW];
+        for _ in 0..walks {
+            let mu = (m0 * m0 + rng.next_f64() * (m1 * m1 - m0 * m0))
+                .sqrt()
+                .max(1e-4);
+            let wi = Vec3::new((1.0 - mu * mu).max(0.0).sqrt() as f32, 0.0, mu as f32);
+            let Some(s) = walk.sample(wi, &mut rng) else {
+                continue;
+            };
+            if s.wo.z <= 0.0 {
+                continue;
+            }
+            let w = if s.bounces == 1 {
+                let li = walk.lambda(wi.as_dvec3());
+                let lo = walk.lambda(s.wo.as_dvec3().normalize());
+                li * lo / ((1.0 + li) * (1.0 + lo))
+            } else {
+                1.0
+            };
+            h[mu_bin(s.wo.z) * LOBE_PHI + phi_bin(wi, s.wo)] += w;
+        }
+        let scale = bin_m(i) / walks as f64;
+        h.iter_mut().for_each(|v| *v *= scale);
+        h
+    });
+    let mut joint = vec![0.0f64; LOBE_ALPHAS * SLICE];
+    let mut asym = vec![0.0f64; LOBE_ALPHAS];
+    for (n, h) in rows.iter().enumerate() {
+        let (a, i) = (n / LOBE_MU + 1, n % LOBE_MU);
+        joint[a * SLICE + i * ROW..][..ROW].copy_from_slice(h);
+    }
+    for a in 1..LOBE_ALPHAS {
+        let s = &mut joint[a * SLICE..][..SLICE];
+        let (mut diff, mut total) = (0.0, 0.0);
+        for i in 0..LOBE_MU {
+            for b in i..LOBE_MU {
+                for c in 0..LOBE_PHI {
+                    let (p, q) = (i * ROW + b * LOBE_PHI + c, b * ROW + i * LOBE_PHI + c);
+                    let m = 0.5 * (s[p] + s[q]);
+                    diff += (s[p] - s[q]).abs();
+                    total += s[p] + if p != q { s[q] } else { 0.0 };
+                    s[p] = m;
+                    s[q] = m;
+                }
+            }
+        }
+        asym[a] = if total > 0.0 { 0.5 * diff / total } else { 0.0 };
+    }
+    (joint, asym)
+}
+
+const MAGIC: &[u8; 8] = b"SPMSLOB1";
+
+fn kind_index(kind: MicrofacetType) -> usize {
+    match kind {
+        MicrofacetType::Ggx => 0,
+        MicrofacetType::Beckmann => 1,
+    }
+}
+
+/// The data file for the joints of GGX and Beckmann (in that order): the magic, then per
+/// distribution and roughness node a little-endian f32 scale and the upper triangle (μi ≤ μo
+/// bins, then Δφ) as u16 q with value = scale (q / 65535)².
+pub fn encode_lobe_tables(joints: [&[f64]; 2]) -> Vec<u8> {
+    let mut out = MAGIC.to_vec();
+    for j in joints {
+        for a in 0..LOBE_ALPHAS {
+            let s = &j[a * SLICE..][..SLICE];
+            let max = s.iter().cloned().fold(0.0f64, f64::max);
+            out.extend_from_slice(&(max as f32).to_le_bytes());
+            for i in 0..LOBE_MU {
+                for b in i..LOBE_MU {
+                    for c in 0..LOBE_PHI {
+                        let v = s[i * ROW + b * LOBE_PHI + c];
+                        let q = if max > 0.0 {
+                            ((v / max).max(0.0).sqrt() * 65535.0).round() as u16
+                        } else {
+                            0
+                        };
+                        out.extend_from_slice(&q.to_le_bytes());
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The joint of one distribution from [`encode_lobe_tables`]'s bytes (`None`: no or a
+/// malformed file).
+fn decode_lobe_table(bytes: &[u8], kind: MicrofacetType) -> Option<Vec<f64>> {
+    const TRI: usize = LOBE_MU * (LOBE_MU + 1) / 2 * LOBE_PHI;
+    let per = LOBE_ALPHAS * (4 + 2 * TRI);
+    if bytes.len() != MAGIC.len() + 2 * per || &bytes[..MAGIC.len()] != MAGIC {
+        return None;
+    }
+    let mut p = MAGIC.len() + kind_index(kind) * per;
+    let mut joint = vec![0.0f64; LOBE_ALPHAS * SLICE];
+    for a in 0..LOBE_ALPHAS {
+        let scale = f32::from_le_bytes(bytes[p..p + 4].try_into().ok()?) as f64;
+        p += 4;
+        let s = &mut joint[a * SLICE..][..SLICE];
+        for i in 0..LOBE_MU {
+            for b in i..LOBE_MU {
+                for c in 0..LOBE_PHI {
+                    let q = u16::from_le_bytes([bytes[p], bytes[p + 1]]) as f64 / 65535.0;
+                    p += 2;
+                    let v = scale * q * q;
+                    s[i * ROW + b * LOBE_PHI + c] = v;
+                    s[b * ROW + i * LOBE_PHI + c] = v;
+                }
+            }
+        }
+    }
+    Some(joint)
+}
+
+/// The committed measurement (see the module; regenerate with `cargo test --release -p
+/// specula-bsdf --test multiscatter generate_lobe_table -- --ignored`).
+const LOBE_DATA: &[u8] = include_bytes!("lobe.bin");
+
+/// The normalised lobe shape of one distribution (see the module).
+#[derive(Debug)]
+pub struct LobeTable {
+    /// Ŝ per (roughness node, μi bin, μo bin, Δφ bin).
+    s: Vec<f32>,
+    /// Z = Σ_bc Ŝ M_b A_c per (roughness node, μi bin).
+    z: Vec<f32>,
+    /// Σ_b R_ib ∫_b q(μ) μ dμ per (roughness node, μi bin), R_ib = Σ_c Ŝ_ibc A_c and q the
+    /// components of C(μ) ([`NQ`]): ρ(μi) of any Fresnel fit is their combination.
+    q: Vec<[f32; NQ]>,
+    /// ∫_b q(μ) μ dμ per (roughness node, μ bin).
+    qb: Vec<[f32; NQ]>,
+    /// Per (roughness node, μi bin): the cumulative distribution of the cells (μo bin, Δφ
+    /// bin) ∝ Ŝ M_b A_c.
+    cdf: Vec<f32>,
+    /// Whether the shape came from the measurement (false: Kulla–Conty's 1/π).
+    pub measured: bool,
+}
+
+impl LobeTable {
+    /// Build from a joint (or Kulla–Conty's constant shape without one) and the albedo table
+    /// the compensation reads (rows at the α nodes of [`alpha_node`] over `ALPHA_RES`).
+    fn build(joint: Option<&[f64]>, e: &ConductorTables) -> Self {
+        let (gx, gw) = gauss_legendre(12);
+        let mut q = vec![[0.0f32; NQ]; LOBE_ALPHAS * LOBE_MU];
+        let mut qbs = vec![[0.0f32; NQ]; LOBE_ALPHAS * LOBE_MU];
+        let mut s = vec![0.0f32; LOBE_ALPHAS * SLICE];
+        let mut z = vec![0.0f32; LOBE_ALPHAS * LOBE_MU];
+        let mut cdf = vec![0.0f32; LOBE_ALPHAS * SLICE];
+        for a in 0..LOBE_ALPHAS {
+            let alpha = alpha_node(a, LOBE_ALPHAS);
+            // m_b = ∫ (1 − E) μ dμ over each bin (in t = √μ: 2t³ (1 − E(t²)) dt)
+            let m: Vec<f64> = (0..LOBE_MU)
+                .map(|b| {
+                    let (t0, t1) = (b as f64 / LOBE_MU as f64, (b + 1) as f64 / LOBE_MU as f64);
+                    gx.iter()
+                        .zip(&gw)
+                        .map(|(x, w)| {
+                            let t = t0 + (t1 - t0) * 0.5 * (x + 1.0);
+                            let mu = t * t;
+                            let ev = e.e(alpha, mu as f32) as f64;
+                            2.0 * t * mu * (1.0 - ev) * w * 0.5 * (t1 - t0)
+                        })
+                        .sum()
+                })
+                .collect();
+            // per bin ∫ q(μ) μ dμ of the components of C(μ)
+            let qb: Vec<[f64; NQ]> = (0..LOBE_MU)
+                .map(|b| {
+                    let (t0, t1) = (b as f64 / LOBE_MU as f64, (b + 1) as f64 / LOBE_MU as f64);
+                    let mut acc = [0.0f64; NQ];
+                    for (x, w) in gx.iter().zip(&gw) {
+                        let t = t0 + (t1 - t0) * 0.5 * (x + 1.0);
+                        let mu = t * t;
+                        let c = e.at(alpha, mu as f32).components();
+                        for (a, c) in acc.iter_mut().zip(c) {
+                            *a += 2.0 * t * mu * c as f64 * w * 0.5 * (t1 - t0);
+                        }
+                    }
+                    acc
+                })
+                .collect();
+            for (b, v) in qb.iter().enumerate() {
+                qbs[a * LOBE_MU + b] = v.map(|x| x as f32);
+            }
+            let target = 2.0 * m.iter().sum::<f64>();
+            let kc = 1.0 / std::f64::consts::PI;
+            let mut sh = vec![kc; SLICE];
+            let j = joint.map(|j| &j[a * SLICE..][..SLICE]);
+            let total: f64 = j.map_or(0.0, |j| j.iter().sum());
+            if let (Some(j), true) = (j, target > 1e-5 && total > 0.0) {
+                // the measured shape, scaled as a whole to the right energy, blended with 1/π
+                let mut raw = vec![0.0f64; SLICE];
+                let mut energy = 0.0;
+                for i in 0..LOBE_MU {
+                    for b in 0..LOBE_MU {
+                        for c in 0..LOBE_PHI {
+                            let k = i * ROW + b * LOBE_PHI + c;
+                            let den = (m[i] * m[b]).max(1e-12) * A_C;
+                            raw[k] = j[k] / den;
+                            energy += raw[k] * m[i] * m[b] * A_C;
+                        }
+                    }
+                }
+                let want: f64 = m.iter().map(|mi| mi * target).sum();
+                let g = want / energy;
+                for k in 0..SLICE {
+                    sh[k] = (1.0 - KC_BLEND) * g * raw[k] + KC_BLEND * kc;
+                }
+                sinkhorn(&mut sh, &m, target);
+            }
+            for i in 0..LOBE_MU {
+                let row = &sh[i * ROW..][..ROW];
+                let mut acc = 0.0f64;
+                let base = a * SLICE + i * ROW;
+                for b in 0..LOBE_MU {
+                    for c in 0..LOBE_PHI {
+                        let k = b * LOBE_PHI + c;
+                        s[base + k] = row[k] as f32;
+                        acc += row[k] * bin_m(b) * A_C;
+                        cdf[base + k] = acc as f32;
+                    }
+                }
+                z[a * LOBE_MU + i] = acc as f32;
+                let mut qi = [0.0f64; NQ];
+                for (b, qb) in qb.iter().enumerate() {
+                    let r: f64 = row[b * LOBE_PHI..][..LOBE_PHI].iter().sum::<f64>() * A_C;
+                    for (x, y) in qi.iter_mut().zip(qb) {
+                        *x += r * y;
+                    }
+                }
+                q[a * LOBE_MU + i] = qi.map(|v| v as f32);
+                for v in &mut cdf[base..base + ROW] {
+                    *v = (*v as f64 / acc) as f32;
+                }
+                cdf[base + ROW - 1] = 1.0;
+            }
+        }
+        LobeTable {
+            s,
+            z,
+            q,
+            qb: qbs,
+            cdf,
+            measured: joint.is_some(),
+        }
+    }
+
+    /// Roughness node and weight.
+    #[inline]
+    fn alpha_coord(alpha: f32) -> (usize, f32) {
+        let x = alpha.clamp(0.0, 1.0).sqrt() * (LOBE_ALPHAS - 1) as f32;
+        let i = (x as usize).min(LOBE_ALPHAS - 2);
+        (i, x - i as f32)
+    }
+
+    /// Ŝ(α; μi, μo, Δφ) and the density of [`Self::sample`] at wo over solid angle, Ŝ μo / Z
+    /// (both wi and wo above the surface).
+    #[inline]
+    pub fn eval(&self, alpha: f32, wi: Vec3, wo: Vec3) -> (f32, f32) {
+        let (a, w) = Self::alpha_coord(alpha);
+        let i = mu_bin(wi.z);
+        let k = i * ROW + mu_bin(wo.z) * LOBE_PHI + phi_bin(wi, wo);
+        let (s0, s1) = (self.s[a * SLICE + k], self.s[(a + 1) * SLICE + k]);
+        let (z0, z1) = (self.z[a * LOBE_MU + i], self.z[(a + 1) * LOBE_MU + i]);
+        let s = s0 + (s1 - s0) * w;
+        let z = z0 + (z1 - z0) * w;
+        (s, s * wo.z / z)
+    }
+
+    /// ρ(μ) = Σ_b R_ib ∫_b C(μo) μo dμo for the compensation colour `ms` (the row integral
+    /// of C_o Ŝ over ωo; 1 − E_avg for a white conductor).
+    #[inline]
+    pub fn rho(&self, alpha: f32, mu: f32, ms: &ConductorMs) -> Spectrum {
+        let (a, w) = Self::alpha_coord(alpha);
+        let i = mu_bin(mu);
+        let (q0, q1) = (&self.q[a * LOBE_MU + i], &self.q[(a + 1) * LOBE_MU + i]);
+        let q: [f32; NQ] = std::array::from_fn(|k| q0[k] + (q1[k] - q0[k]) * w);
+        ms.combine(&q)
+    }
+
+    /// The μ bin of a cosine (the index of [`Self::rho_bins`]).
+    #[inline]
+    pub fn bin(mu: f32) -> usize {
+        mu_bin(mu)
+    }
+
+    /// ρ per μ bin for one roughness and compensation colour, made exact: the symmetric
+    /// scaling ρ_i = C_avg / d_i² per channel (Sinkhorn iteration) for which every row of
+    /// C(μi) C(μo) Ŝ / √(ρ_i ρ_o) integrates to C(μi) exactly (with [`ConductorMs::lobe_measured`]).
+    pub fn rho_bins(&self, alpha: f32, ms: &ConductorMs) -> [Spectrum; LOBE_MU] {
+        let (a, w) = Self::alpha_coord(alpha);
+        let lerp = |x: f32, y: f32| (x + (y - x) * w) as f64;
+        let n: Vec<Spectrum> = (0..LOBE_MU)
+            .map(|b| {
+                let (q0, q1) = (&self.qb[a * LOBE_MU + b], &self.qb[(a + 1) * LOBE_MU + b]);
+                let q: [f32; NQ] = std::array::from_fn(|k| q0[k] + (q1[k] - q0[k]) * w);
+                ms.combine(&q)
+            })
+            .collect();
+        let r: Vec<f64> = (0..LOBE_MU * LOBE_MU)
+            .map(|ib| {
+                (0..LOBE_PHI)
+                    .map(|c| {
+                        let k = ib * LOBE_PHI + c;
+                        lerp(self.s[a * SLICE + k], self.s[(a + 1) * SLICE + k])
+                    })
+                    .sum::<f64>()
+                    * A_C
+            })
+            .collect();
+        let mut out = [Spectrum::ZERO; LOBE_MU];
+        for ch in 0..3 {
+            let nb: Vec<f64> = n.iter().map(|v| (v[ch] as f64).max(0.0)).collect();
+            let k = 2.0 * nb.iter().sum::<f64>();
+            if k <= 1e-9 {
+                continue;
+            }
+            let mut d = vec![1.0f64; LOBE_MU];
+            for _ in 0..5000 {
+                let mut worst = 0.0f64;
+                for i in 0..LOBE_MU {
+                    let row: f64 = (0..LOBE_MU)
+                        .map(|b| r[i * LOBE_MU + b] * d[b] * nb[b])
+                        .sum();
+                    let ratio = k / (d[i] * row);
+                    worst = worst.max((ratio - 1.0).abs());
+                    d[i] *= ratio.sqrt();
+                }
+                if worst < 1e-9 {
+                    break;
+                }
+            }
+            for i in 0..LOBE_MU {
+                out[i].0[ch] = (k / (d[i] * d[i])) as f32;
+            }
+        }
+        out
+    }
+
+    /// A direction distributed with the density [`Self::eval`] reports, from `u` (the
+    /// roughness node) and `u2`.
+    #[inline]
+    pub fn sample(&self, alpha: f32, wi: Vec3, u: f32, u2: Vec2) -> Vec3 {
+        let (a, w) = Self::alpha_coord(alpha);
+        let i = mu_bin(wi.z);
+        let z0 = self.z[a * LOBE_MU + i] * (1.0 - w);
+        let z1 = self.z[(a + 1) * LOBE_MU + i] * w;
+        let node = if u * (z0 + z1) < z0 { a } else { a + 1 };
+        let cdf = &self.cdf[node * SLICE + i * ROW..][..ROW];
+        let ux = u2.x.min(1.0 - f32::EPSILON);
+        let k = cdf.partition_point(|&c| c <= ux).min(ROW - 1);
+        let lo = if k == 0 { 0.0 } else { cdf[k - 1] };
+        let frac = ((ux - lo) / (cdf[k] - lo).max(1e-30)).clamp(0.0, 1.0);
+        let (b, c) = (k / LOBE_PHI, k % LOBE_PHI);
+        let (m0, m1) = mu_edges(b);
+        let (m0, m1) = (m0 as f32, m1 as f32);
+        let mu = (m0 * m0 + frac * (m1 * m1 - m0 * m0)).sqrt();
+        let v = 2.0 * u2.y;
+        let (sign, f) = if v < 1.0 { (1.0, v) } else { (-1.0, v - 1.0) };
+        let dphi = sign * (c as f32 + f) * (PI / LOBE_PHI as f32);
+        let (ci, si) = azimuth(wi);
+        let (sd, cd) = dphi.sin_cos();
+        let r = (1.0 - mu * mu).max(0.0).sqrt();
+        Vec3::new(r * (ci * cd - si * sd), r * (si * cd + ci * sd), mu)
+    }
+}
+
+/// Symmetric Sinkhorn scaling of a symmetric shape: Ŝ_ibc ← d_i Ŝ_ibc d_b until every row
+/// satisfies Σ_bc Ŝ_ibc m_b A_c = target.
+fn sinkhorn(sh: &mut [f64], m: &[f64], target: f64) {
+    let r: Vec<f64> = (0..LOBE_MU * LOBE_MU)
+        .map(|ib| sh[ib * LOBE_PHI..][..LOBE_PHI].iter().sum::<f64>() * A_C)
+        .collect();
+    let mut d = vec![1.0f64; LOBE_MU];
+    for _ in 0..2000 {
+        let mut worst = 0.0f64;
+        for i in 0..LOBE_MU {
+            let row: f64 = (0..LOBE_MU).map(|b| r[i * LOBE_MU + b] * d[b] * m[b]).sum();
+            let ratio = target / (d[i] * row);
+            worst = worst.max((ratio - 1.0).abs());
+            d[i] *= ratio.sqrt();
+        }
+        if worst < 1e-9 {
+            break;
+        }
+    }
+    for i in 0..LOBE_MU {
+        for b in 0..LOBE_MU {
+            for c in 0..LOBE_PHI {
+                sh[i * ROW + b * LOBE_PHI + c] *= d[i] * d[b];
+            }
+        }
+    }
+}
+
+/// The lobe shape of a distribution (built on first use from the committed measurement and
+/// the albedo table, a few milliseconds).
+pub fn lobe_table(kind: MicrofacetType) -> &'static LobeTable {
+    static GGX: OnceLock<LobeTable> = OnceLock::new();
+    static BECKMANN: OnceLock<LobeTable> = OnceLock::new();
+    let cell = match kind {
+        MicrofacetType::Ggx => &GGX,
+        MicrofacetType::Beckmann => &BECKMANN,
+    };
+    cell.get_or_init(|| {
+        let joint = decode_lobe_table(LOBE_DATA, kind);
+        LobeTable::build(joint.as_deref(), super::conductor_tables(kind))
+    })
+}
+
+/// [`LobeTable::build`] from a joint in memory (the generator's check before writing).
+pub fn lobe_table_from(kind: MicrofacetType, joint: &[f64]) -> LobeTable {
+    LobeTable::build(Some(joint), super::conductor_tables(kind))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The committed data decodes, and every row integrates to 1 − E(μi) at the roughness
+    /// nodes (the white furnace), for μi across each bin; the shape is symmetric.
+    #[test]
+    fn rows_integrate_to_the_deficit() {
+        for kind in [MicrofacetType::Ggx, MicrofacetType::Beckmann] {
+            assert!(decode_lobe_table(LOBE_DATA, kind).is_some(), "lobe.bin");
+            let t = lobe_table(kind);
+            assert!(t.measured);
+            for a in [4usize, 10, 16] {
+                let base = a * SLICE;
+                for i in 0..LOBE_MU {
+                    for b in 0..LOBE_MU {
+                        for c in 0..LOBE_PHI {
+                            let (p, q) = (i * ROW + b * LOBE_PHI + c, b * ROW + i * LOBE_PHI + c);
+                            let (x, y) = (t.s[base + p], t.s[base + q]);
+                            assert!((x - y).abs() <= 1e-6 * x.abs().max(1e-6), "{x} {y}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+}

@@ -22,10 +22,18 @@
 //! depend on η and are built per η when a material is built ([`DielectricEnergy::get`],
 //! cached).
 //!
-//! **Conductors.** f = f_ss + C(μi) C(μo) / (π C_avg) per channel, where C(μ) is the energy
-//! the single-scattering model misses for light from μ *with the conductor's Fresnel*, and
-//! C_avg = 2∫C(μ)μ dμ: the lobe is symmetric in (ωi, ωo) (reciprocal) and integrates to
-//! C(μi). For a white conductor C = 1 − E(μ) (Kulla and Conty's lobe). For a coloured one
+//! **Conductors.** Kulla and Conty's lobe is f = f_ss + C(μi) C(μo) / (π C_avg) per channel,
+//! where C(μ) is the energy the single-scattering model misses for light from μ *with the
+//! conductor's Fresnel*, and C_avg = 2∫C(μ)μ dμ: symmetric in (ωi, ωo) (reciprocal),
+//! integrating to C(μi), and separable, diffuse-like. Specula replaces its constant 1/π by a
+//! shape Ŝ(α; μi, μo, Δφ) measured from the random walk ([`lobe`]: the walk's deficit lobe,
+//! tabulated, symmetric, normalised by Sinkhorn scaling):
+//! f = f_ss + C(μi) C(μo) Ŝ / √(ρ(μi) ρ(μo)), with ρ(μ) = ∫ C(μo) Ŝ(μ, ωo) μo dωo the row
+//! integral (for a white conductor C = 1 − E and ρ = 1 − E_avg; for a constant colour ρ is
+//! made exact per μ bin by the same scaling, per channel, when the material is built; for a
+//! textured one it is the row integral itself, exact to second order in its variation). The
+//! lobe stays reciprocal and returns C(μi), and now peaks around the specular direction at
+//! grazing incidence, as the walk's multiply scattered light does. For a coloured one
 //! Kulla and Conty's C = (1 − E(μ)) F_avg² E_avg / (1 − F_avg (1 − E_avg)) is 5–26 % short of
 //! the random walk in low-reflectance channels (gold's blue and green, chromium, copper at
 //! α = 1), for two reasons, measured against the walk: (i) the model's separable G1·G1 loses
@@ -81,18 +89,23 @@
 //! scattering": x = min(t_o (1 − E_o_avg), η² t_i (1 − E_i_avg)) with t = T_avg / E_avg of the
 //! single-scattering model on each side (the minimum keeps both reflection weights ≥ 0).
 //!
-//! **Sampling.** The compensation lobes are cosine-distributed; a model picks them with
-//! probability 1 − E(μi) (the white energy they carry) and reports the pdf of the mixture, so
-//! that sample weights are f·|cosθo| / pdf exactly.
+//! **Sampling.** A model picks the compensation with probability 1 − E(μi) (the white energy
+//! it carries) and reports the pdf of the mixture, so that sample weights are f·|cosθo| / pdf
+//! exactly. `roughconductor` samples its measured lobe from the table ([`LobeTable::sample`],
+//! whose density is exactly Ŝ μo / Z); `principled`'s metallic lobe, the anisotropic
+//! conductor tables and the dielectric lobes are cosine-sampled.
 //!
 //! # Known limits
 //!
-//! - The lobe's shape is Kulla–Conty's separable approximation: the multiply scattered light
-//!   is spread more diffusely than it really is (it peaks around the specular direction). Against
-//!   the exact random walk ([`crate::models::microsurface_walk`], `specula brdf multiscatter`):
-//!   white albedo (R + T) within 0.2 %; the distance between the binned lobes (total
-//!   variation, noise ≈ 0.015) 0.02–0.07 at most incidences, up to 0.14 for a GGX α = 1
-//!   conductor at 85° and 0.22 for a GGX α = 1 dielectric at 75°.
+//! - Lobe shape against the exact random walk ([`crate::models::microsurface_walk`],
+//!   `specula brdf multiscatter`; total variation between the binned lobes): conductors
+//!   (measured shape) LOBE_RESULTS. White albedo (R + T) within 0.2 % throughout.
+//! - The dielectric lobes (`roughdielectric`, the coat of `roughplastic`, `principled`'s
+//!   specular transmission) keep Kulla–Conty's separable shape: distance up to 0.22 for a GGX
+//!   α = 1 dielectric at 75°.
+//! - The measured shape is piecewise constant over its cells (16 θ bins of 5.6° for each of
+//!   θi and θo, 16 Δφ bins of 11.25°) and linear in √α between 17 nodes; an anisotropic
+//!   constant roughness keeps Kulla–Conty's separable shape over its azimuthal tables.
 //! - Coloured conductors: within 2.2 % of the walk (above); what remains is the fit of F,
 //!   the pooling of the later bounces over incidences and the walk statistics' noise
 //!   (≈ 1 % of the second-bounce energy).

@@ -56,7 +56,8 @@
 //!
 //! - the **metallic** part (weight `metallic`, front side): the conductor compensation lobe
 //!   of `roughconductor` with the metallic Fresnel, Schlick's with F₀ = `base_color` (which
-//!   the Fresnel fit of the compensation represents exactly);
+//!   the Fresnel fit of the compensation represents exactly), with the shape measured from
+//!   the random walk ([`crate::multiscatter::lobe`]) for an isotropic or textured roughness;
 //! - the **specular-transmission** part (weight (1 − metallic)·spec_trans, both sides): the
 //!   rough-dielectric compensation lobes of `roughdielectric` for `eta` (reflection white, as
 //!   the dielectric Fresnel of that part; transmission tinted by √`base_color` and scaled by
@@ -82,9 +83,10 @@ use crate::bsdf::*;
 use crate::frame::{reflect, refract};
 use crate::fresnel::{dielectric_transmittance_pair, fresnel_dielectric};
 use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
+use crate::multiscatter::lobe::LOBE_MU;
 use crate::multiscatter::{
-    conductor_tables, conductor_tables_aniso, folded_phi, table_alpha, ConductorMs,
-    ConductorTables, DielectricEnergy, FresnelFit,
+    conductor_tables, conductor_tables_aniso, folded_phi, lobe_table, table_alpha, ConductorMs,
+    ConductorTables, DielectricEnergy, FresnelFit, LobeTable,
 };
 use crate::spectrum::Spectrum;
 use crate::warp;
@@ -129,6 +131,9 @@ pub struct PrincipledMs {
     /// The metallic part's colour when `base_color` and the roughness are constant (RGB
     /// mode; spectral mode evaluates `base_color` at the wavelengths).
     pub metal: Option<ConductorMs>,
+    /// With `metal` and an isotropic roughness: the measured lobe's exact row integrals per μ
+    /// bin ([`LobeTable::rho_bins`]).
+    pub metal_rho: Option<Arc<[Spectrum; LOBE_MU]>>,
 }
 
 /// The compensation at one shading point and incidence.
@@ -451,7 +456,19 @@ impl Principled {
                 Some(c) => c,
                 None => t.ms(st.alpha, &FresnelFit::schlick(l.base)),
             };
-            let lobe = c.lobe(c.energy(&t.at(xi, wi.z)), c.energy(&t.at(xo, wo.z)));
+            let (c_i, c_o) = (c.energy(&t.at(xi, wi.z)), c.energy(&t.at(xo, wo.z)));
+            let lobe = if ms.aniso.is_some() {
+                c.lobe(c_i, c_o)
+            } else {
+                // the measured shape (see `multiscatter::lobe`), cosine-sampled here
+                let lt = lobe_table(MicrofacetType::Ggx);
+                let (shape, _) = lt.eval(st.alpha, wi, wo);
+                let (r_i, r_o) = match (&ms.metal_rho, ms.metal.filter(|_| !spectral)) {
+                    (Some(r), Some(_)) => (r[LobeTable::bin(wi.z)], r[LobeTable::bin(wo.z)]),
+                    _ => (lt.rho(st.alpha, wi.z, &c), lt.rho(st.alpha, wo.z, &c)),
+                };
+                c.lobe_measured(c_i, c_o, shape, r_i, r_o)
+            };
             v += lobe * l.metallic;
         }
         if let Some(d) = &ms.dielectric {
@@ -942,10 +959,22 @@ impl Principled {
                 }
                 _ => None,
             };
+            let metal_rho = match (&metal, &roughness, &anisotropic, &aniso) {
+                (Some(m), FloatParam::Const(r), FloatParam::Const(a), None) => {
+                    let (au, av) = dist_params(*a, *r);
+                    Some(Arc::new(lobe_table(MicrofacetType::Ggx).rho_bins(
+                        conductor_tables(MicrofacetType::Ggx),
+                        table_alpha(au, av),
+                        m,
+                    )))
+                }
+                _ => None,
+            };
             Some(PrincipledMs {
                 dielectric,
                 aniso,
                 metal,
+                metal_rho,
             })
         } else {
             None

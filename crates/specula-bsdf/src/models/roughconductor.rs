@@ -2,9 +2,11 @@
 //! Beckmann or GGX, isotropic or anisotropic (brushed metal: α_u ≠ α_v), visible-normal
 //! sampling by default (Mitsuba 3 `roughconductor`).
 //!
-//! Specula option `multiscatter` (default `false`, Mitsuba's model): add Kulla & Conty's
-//! energy-compensation lobe, so that a white rough conductor reflects all the light at every
-//! roughness and incidence; its colour follows the random walk on the microsurface order by
+//! Specula option `multiscatter` (default `false`, Mitsuba's model): add an energy-
+//! compensation lobe (after Kulla & Conty 2017), so that a white rough conductor reflects all
+//! the light at every roughness and incidence; its shape is measured from the random walk on
+//! the microsurface (tabulated, reciprocal, sampled from its table; Kulla & Conty's
+//! separable lobe for a constant anisotropic roughness), its colour follows the walk order by
 //! order (exact first bounce, walk statistics of the second) instead of Kulla & Conty's
 //! F_avg term (see [`crate::multiscatter`] for the method, its accuracy and its limits).
 
@@ -81,9 +83,13 @@ impl RoughConductor {
                     _ => None,
                 };
                 let rho = match (&ms, &self.alpha_u, &self.alpha_v, &self.ms_aniso) {
-                    (Some(ms), FloatParam::Const(u), FloatParam::Const(v), None) => Some(Arc::new(
-                        lobe_table(self.distribution).rho_bins(table_alpha(*u, *v), ms),
-                    )),
+                    (Some(ms), FloatParam::Const(u), FloatParam::Const(v), None) => {
+                        Some(Arc::new(lobe_table(self.distribution).rho_bins(
+                            conductor_tables(self.distribution),
+                            table_alpha(*u, *v),
+                            ms,
+                        )))
+                    }
                     _ => None,
                 };
                 Some((fit, ms, rho))

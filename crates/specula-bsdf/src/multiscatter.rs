@@ -98,8 +98,12 @@
 //! # Known limits
 //!
 //! - Lobe shape against the exact random walk ([`crate::models::microsurface_walk`],
-//!   `specula brdf multiscatter`; total variation between the binned lobes): conductors
-//!   (measured shape) LOBE_RESULTS. White albedo (R + T) within 0.2 % throughout.
+//!   `specula brdf multiscatter`; total variation between the binned lobes, 200 000 samples):
+//!   white conductors with the measured shape, GGX and Beckmann, α 0.1–1, θi 0–85°, at most
+//!   0.018 above the distance of identical lobes (the noise, 0.002–0.019): 0.028 (noise
+//!   0.015) for GGX α = 1 at 85°, 0.020 (noise 0.002) for Beckmann α = 0.1 at 85°; Kulla–Conty's
+//!   separable lobe was up to 0.14 (GGX α = 1, 85°) and 0.08 (Beckmann α = 0.1, 85°). White
+//!   albedo (R + T) within 0.2 % throughout.
 //! - The dielectric lobes (`roughdielectric`, the coat of `roughplastic`, `principled`'s
 //!   specular transmission) keep Kulla–Conty's separable shape: distance up to 0.22 for a GGX
 //!   α = 1 dielectric at 75°.

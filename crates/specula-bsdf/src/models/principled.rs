@@ -86,7 +86,7 @@ use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
 use crate::multiscatter::lobe::LOBE_MU;
 use crate::multiscatter::{
     conductor_tables, conductor_tables_aniso, folded_phi, lobe_table, table_alpha, ConductorMs,
-    ConductorTables, DielectricEnergy, FresnelFit, LobeTable,
+    ConductorTables, DielectricEnergy, FresnelFit,
 };
 use crate::spectrum::Spectrum;
 use crate::warp;
@@ -132,7 +132,7 @@ pub struct PrincipledMs {
     /// mode; spectral mode evaluates `base_color` at the wavelengths).
     pub metal: Option<ConductorMs>,
     /// With `metal` and an isotropic roughness: the measured lobe's exact row integrals per μ
-    /// bin ([`LobeTable::rho_bins`]).
+    /// bin ([`crate::multiscatter::LobeTable::rho_bins`]).
     pub metal_rho: Option<Arc<[Spectrum; LOBE_MU]>>,
 }
 
@@ -464,7 +464,7 @@ impl Principled {
                 let lt = lobe_table(MicrofacetType::Ggx);
                 let (shape, _) = lt.eval(st.alpha, wi, wo);
                 let (r_i, r_o) = match (&ms.metal_rho, ms.metal.filter(|_| !spectral)) {
-                    (Some(r), Some(_)) => (r[LobeTable::bin(wi.z)], r[LobeTable::bin(wo.z)]),
+                    (Some(r), Some(_)) => (r[lt.bin(wi.z)], r[lt.bin(wo.z)]),
                     _ => (lt.rho(st.alpha, wi.z, &c), lt.rho(st.alpha, wo.z, &c)),
                 };
                 c.lobe_measured(c_i, c_o, shape, r_i, r_o)

@@ -17,7 +17,7 @@ use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
 use crate::multiscatter::lobe::LOBE_MU;
 use crate::multiscatter::{
     conductor_tables, conductor_tables_aniso, folded_phi, lobe_table, table_alpha, ConductorMs,
-    ConductorTables, FresnelFit, LobeTable,
+    ConductorTables, FresnelFit,
 };
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
@@ -123,7 +123,7 @@ impl RoughConductor {
                 let lt = lobe_table(self.distribution);
                 let (shape, pdf) = lt.eval(a, wi, wo);
                 let (r_i, r_o) = match rho {
-                    Some(r) => (r[LobeTable::bin(wi.z)], r[LobeTable::bin(wo.z)]),
+                    Some(r) => (r[lt.bin(wi.z)], r[lt.bin(wo.z)]),
                     None => (lt.rho(a, wi.z, &ms), lt.rho(a, wo.z, &ms)),
                 };
                 (ms.lobe_measured(c_i, c_o, shape, r_i, r_o), pdf)

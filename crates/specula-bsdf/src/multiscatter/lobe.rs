@@ -271,6 +271,10 @@ pub struct LobeTable {
     cdf: Vec<f32>,
     /// Whether the shape came from the measurement (false: Kulla–Conty's 1/π).
     pub measured: bool,
+    /// Lower μ edges of bins 1.. (ascending), and cos of the Δφ edges 1.. (descending): the
+    /// bins by comparison, without `acos`.
+    mu_lo: [f32; LOBE_MU - 1],
+    phi_cos: [f32; LOBE_PHI - 1],
 }
 
 impl LobeTable {
@@ -385,6 +389,10 @@ impl LobeTable {
             })
             .collect();
         LobeTable {
+            mu_lo: std::array::from_fn(|b| mu_edges(b + 1).0 as f32),
+            phi_cos: std::array::from_fn(|c| {
+                ((c + 1) as f64 * std::f64::consts::PI / LOBE_PHI as f64).cos() as f32
+            }),
             s,
             z,
             q,
@@ -401,13 +409,35 @@ impl LobeTable {
         (i, x - i as f32)
     }
 
+    /// The μ bin of a cosine ([`mu_bin`] by comparisons).
+    #[inline]
+    fn mu_bin_fast(&self, mu: f32) -> usize {
+        self.mu_lo.partition_point(|&e| e <= mu)
+    }
+
+    /// The Δφ bin of (wi, wo) ([`phi_bin`] by comparisons).
+    #[inline]
+    fn phi_bin_fast(&self, wi: Vec3, wo: Vec3) -> usize {
+        let li2 = wi.x * wi.x + wi.y * wi.y;
+        let lo2 = wo.x * wo.x + wo.y * wo.y;
+        if lo2 <= 1e-20 {
+            return 0;
+        }
+        let cos = if li2 <= 1e-20 {
+            wo.x / lo2.sqrt()
+        } else {
+            (wi.x * wo.x + wi.y * wo.y) / (li2 * lo2).sqrt()
+        };
+        self.phi_cos.partition_point(|&e| cos < e)
+    }
+
     /// Ŝ(α; μi, μo, Δφ) and the density of [`Self::sample`] at wo over solid angle, Ŝ μo / Z
     /// (both wi and wo above the surface).
     #[inline]
     pub fn eval(&self, alpha: f32, wi: Vec3, wo: Vec3) -> (f32, f32) {
         let (a, w) = Self::alpha_coord(alpha);
-        let i = mu_bin(wi.z);
-        let k = i * ROW + mu_bin(wo.z) * LOBE_PHI + phi_bin(wi, wo);
+        let i = self.mu_bin_fast(wi.z);
+        let k = i * ROW + self.mu_bin_fast(wo.z) * LOBE_PHI + self.phi_bin_fast(wi, wo);
         let (s0, s1) = (self.s[a * SLICE + k], self.s[(a + 1) * SLICE + k]);
         let (z0, z1) = (self.z[a * LOBE_MU + i], self.z[(a + 1) * LOBE_MU + i]);
         let s = s0 + (s1 - s0) * w;
@@ -422,7 +452,7 @@ impl LobeTable {
         let x = alpha.clamp(0.0, 1.0).sqrt() * (ALPHA_RES - 1) as f32;
         let a = (x as usize).min(ALPHA_RES - 2);
         let w = x - a as f32;
-        let i = mu_bin(mu);
+        let i = self.mu_bin_fast(mu);
         let (q0, q1) = (&self.q[a * LOBE_MU + i], &self.q[(a + 1) * LOBE_MU + i]);
         let q: [f32; NQ] = std::array::from_fn(|k| q0[k] + (q1[k] - q0[k]) * w);
         ms.combine(&q)
@@ -430,8 +460,8 @@ impl LobeTable {
 
     /// The μ bin of a cosine (the index of [`Self::rho_bins`]).
     #[inline]
-    pub fn bin(mu: f32) -> usize {
-        mu_bin(mu)
+    pub fn bin(&self, mu: f32) -> usize {
+        self.mu_bin_fast(mu)
     }
 
     /// ρ per μ bin for one roughness and compensation colour, made exact: the symmetric
@@ -480,7 +510,7 @@ impl LobeTable {
             if k <= 1e-9 {
                 continue;
             }
-            let mut d = vec![1.0f64; LOBE_MU];
+            let mut d = [1.0f64; LOBE_MU];
             for _ in 0..20000 {
                 let mut worst = 0.0f64;
                 for i in 0..LOBE_MU {
@@ -507,7 +537,7 @@ impl LobeTable {
     #[inline]
     pub fn sample(&self, alpha: f32, wi: Vec3, u: f32, u2: Vec2) -> Vec3 {
         let (a, w) = Self::alpha_coord(alpha);
-        let i = mu_bin(wi.z);
+        let i = self.mu_bin_fast(wi.z);
         let z0 = self.z[a * LOBE_MU + i] * (1.0 - w);
         let z1 = self.z[(a + 1) * LOBE_MU + i] * w;
         let node = if u * (z0 + z1) < z0 { a } else { a + 1 };
@@ -536,7 +566,7 @@ fn sinkhorn(sh: &mut [f64], m: &[f64], target: f64) {
     let r: Vec<f64> = (0..LOBE_MU * LOBE_MU)
         .map(|ib| sh[ib * LOBE_PHI..][..LOBE_PHI].iter().sum::<f64>() * A_C)
         .collect();
-    let mut d = vec![1.0f64; LOBE_MU];
+    let mut d = [1.0f64; LOBE_MU];
     for _ in 0..2000 {
         let mut worst = 0.0f64;
         for i in 0..LOBE_MU {

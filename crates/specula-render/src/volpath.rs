@@ -34,6 +34,12 @@
 //!   ([`crate::media::heterogeneous`]); next-event estimation samples emitters as the `path`
 //!   integrator does (the same light selection, area sampling, and cone sampling of spheres).
 //!
+//! Spectral mode ([`crate::spectral`], `wl` given): the media's coefficients are evaluated at
+//! the path's three wavelengths ([`crate::media::spectral`]), the hero channel is a wavelength's
+//! index and the spectral MIS below weighs wavelengths exactly as it weighs RGB channels. (A
+//! dispersive refraction that keeps one wavelength does not re-shade the rest of the path at
+//! it, as `path` does: unbiased, noisier behind dispersive interfaces.)
+//!
 //! Deviations from Mitsuba (same expectation, different noise): free-flight distances are
 //! sampled with a hero channel drawn per path, as Mitsuba does, but weighted by the average of
 //! the channels' path densities (spectral MIS, as Mitsuba's `volpathmis`; see

@@ -36,9 +36,11 @@
 //!
 //! Spectral mode ([`crate::spectral`], `wl` given): the media's coefficients are evaluated at
 //! the path's three wavelengths ([`crate::media::spectral`]), the hero channel is a wavelength's
-//! index and the spectral MIS below weighs wavelengths exactly as it weighs RGB channels. (A
-//! dispersive refraction that keeps one wavelength does not re-shade the rest of the path at
-//! it, as `path` does: unbiased, noisier behind dispersive interfaces.)
+//! index and the spectral MIS below weighs wavelengths exactly as it weighs RGB channels. After
+//! a dispersive Dirac refraction keeps one wavelength, the rest of the path (surfaces, media,
+//! emitters) is shaded at it, as in `path` (the dead channels carry no throughput; their
+//! densities in the spectral MIS are then those of the surviving wavelength, which is what the
+//! sampling does had one of them been the hero).
 //!
 //! Deviations from Mitsuba (same expectation, different noise): free-flight distances are
 //! sampled with a hero channel drawn per path, as Mitsuba does, but weighted by the average of
@@ -56,6 +58,7 @@ use crate::scene::{Light, PathSettings, Scene};
 use crate::spectral::{emission, infinite_emission};
 use crate::xml::Node;
 use glam::Vec3;
+use specula_bsdf::spectral::dispersion::collapse_dead_channels;
 use specula_bsdf::{Bsdf, BsdfContext, BsdfModel, LobeFlags, Rgb, ShadingPoint, Wavelengths};
 
 /// Reads a `<integrator type="volpath">` or `<integrator type="volpathmis">` node.
@@ -240,7 +243,12 @@ impl Scene {
         let mut last_pdf = 1.0f32;
         counters.rays += 1;
         let mut next_hit = Some(hit);
+        // the wavelengths the rest of the path is shaded at: after a dispersive Dirac
+        // refraction keeps one channel, the dead ones take its wavelength (as in `path`, see
+        // `collapse_dead_channels`); the film keeps `wl`
+        let mut wl_path = wl.copied();
         loop {
+            let wl = wl_path.as_ref();
             if throughput.is_black() {
                 break;
             }
@@ -413,6 +421,9 @@ impl Scene {
             };
             let d = si.sh_frame.to_world(bs.wo).normalize();
             throughput *= bs.weight;
+            if let Some(w) = wl_path.as_mut() {
+                collapse_dead_channels(w, throughput.0);
+            }
             eta *= bs.eta;
             // a `Null` lobe (`null`, `mask`; Mitsuba's `thindielectric` transmission) is not a bounce
             let null_event = bs.lobe == LobeFlags::NULL
@@ -879,5 +890,37 @@ mod tests {
         let e = s.set_spectral(true).unwrap_err().to_string();
         assert!(e.contains("raw"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// Spectral mode behind dispersive interfaces: a `dielectric` sphere with SF11's
+    /// dispersion (each wavelength refracts on its own; after a Dirac refraction keeps one,
+    /// the rest of the path is shaded at it, as in `path`) under a coloured environment and an
+    /// area light renders the same image with `volpath` as with `path`: the image means of 10
+    /// renders (seeds 0–9, 8×8 pixels × 128 spp) agree per channel within 4 combined standard
+    /// errors.
+    #[test]
+    fn spectral_dispersion_volpath_equals_path() {
+        let body = r#"<emitter type="constant"><rgb name="radiance" value="0.2, 0.5, 0.9"/></emitter>
+    <shape type="rectangle"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="90"/><translate y="2"/></transform>
+        <emitter type="area"><rgb name="radiance" value="9, 6, 3"/></emitter></shape>
+    <shape type="sphere"><bsdf type="dielectric"><string name="dispersion" value="sf11"/></bsdf></shape>"#;
+        let mut means = Vec::new();
+        for integrator in ["path", "volpath"] {
+            let mut s = scene_fov(body, "", "0.3, 0.5, -4", integrator, 35.0).unwrap();
+            s.set_spectral(true).unwrap();
+            means.push(mean_se(&s, 128, 10));
+        }
+        let ((a, sa), (b, sb)) = (means[0], means[1]);
+        for c in 0..3 {
+            let se = (sa[c] * sa[c] + sb[c] * sb[c]).sqrt();
+            assert!(
+                (a[c] - b[c]).abs() < 4.0 * se && se < 0.02 * a[c],
+                "channel {c}: path {} ± {}, volpath {} ± {}",
+                a[c],
+                sa[c],
+                b[c],
+                sb[c]
+            );
+        }
     }
 }

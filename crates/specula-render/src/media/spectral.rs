@@ -97,6 +97,10 @@ impl Sigmoid {
     /// The values at the path's wavelengths.
     #[inline]
     pub fn eval(&self, w: &Wavelengths) -> Rgb {
+        if self.c == [0.0; 3] {
+            // a constant: σ(0) = ½ exactly, without the square root
+            return Rgb::splat(self.s * 0.5);
+        }
         Rgb(w.0.map(|l| self.at(l)))
     }
 

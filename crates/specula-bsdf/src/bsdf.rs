@@ -238,6 +238,12 @@ pub trait Texture: Send + Sync + fmt::Debug {
 pub trait SpectralCurve: Send + Sync + fmt::Debug {
     /// The value at wavelength `lambda` (nm).
     fn eval(&self, lambda: f32) -> f32;
+    /// The values at the three wavelengths of a path (by default [`SpectralCurve::eval`] at
+    /// each; a curve defined through an RGB upsampling evaluates all three at once).
+    #[inline]
+    fn eval_at(&self, w: &Wavelengths) -> Spectrum {
+        Spectrum::new(self.eval(w.0[0]), self.eval(w.0[1]), self.eval(w.0[2]))
+    }
 }
 
 /// A colour parameter: a constant or a texture, looked up per shading point.
@@ -275,9 +281,7 @@ impl SpectrumParam {
             }
             SpectrumParam::Spectral { rgb, curve } => match &sp.wavelengths {
                 None => *rgb,
-                Some(w) => {
-                    Spectrum::new(curve.eval(w.0[0]), curve.eval(w.0[1]), curve.eval(w.0[2]))
-                }
+                Some(w) => curve.eval_at(w),
             },
         }
     }

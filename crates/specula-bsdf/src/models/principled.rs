@@ -86,7 +86,7 @@ use crate::multiscatter::{
     conductor_tables, conductor_tables_aniso, folded_phi, table_alpha, ConductorMs,
     ConductorTables, DielectricEnergy, FresnelFit,
 };
-use crate::spectrum::Spectrum;
+use crate::spectrum::{Spectrum, Wavelengths};
 use crate::warp;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -184,6 +184,21 @@ pub(crate) fn ggx(anisotropic: f32, roughness: f32) -> MicrofacetDistribution {
     MicrofacetDistribution::new(MicrofacetType::Ggx, ax, ay, true)
 }
 
+/// The luminance the tints divide the base colour by: the RGB luminance in RGB mode; in
+/// spectral mode Mitsuba's `luminance(value, wavelengths)` (probed: 3.9.1's
+/// `mi.luminance`), the mean over the path's wavelengths of ȳ(λ)·base(λ), ȳ the CIE 1931
+/// luminous-efficiency curve (unnormalised, ȳ(555 nm) = 1).
+#[inline]
+pub(crate) fn tint_luminance(base: Spectrum, wl: Option<&Wavelengths>) -> f32 {
+    match wl {
+        None => base.luminance(),
+        Some(w) => {
+            let y = |k: usize| crate::spectral::cie::xyz_bar(w.0[k])[1] * base.0[k];
+            (y(0) + y(1) + y(2)) * (1.0 / 3.0)
+        }
+    }
+}
+
 /// `base / lum`, or white when the luminance is not positive.
 #[inline]
 pub(crate) fn tint(base: Spectrum, lum: f32) -> Spectrum {
@@ -212,13 +227,14 @@ pub(crate) fn diffuse_factor(ci: f32, co: f32, cos_d: f32, roughness: f32, flatn
     (f_diff + f_retro) * (1.0 - flatness) + f_ss * flatness
 }
 
-/// The sheen colour lerp(1, base/lum, sheen_tint).
+/// The sheen colour lerp(1, base/lum, sheen_tint) (lum: [`tint_luminance`] at the
+/// wavelengths `wl`).
 #[inline]
-pub(crate) fn sheen_color(base: Spectrum, sheen_tint: f32) -> Spectrum {
+pub(crate) fn sheen_color(base: Spectrum, sheen_tint: f32, wl: Option<&Wavelengths>) -> Spectrum {
     if sheen_tint == 0.0 {
         return Spectrum::ONE;
     }
-    let c = tint(base, base.luminance());
+    let c = tint(base, tint_luminance(base, wl));
     Spectrum::splat(1.0 - sheen_tint) + c * sheen_tint
 }
 
@@ -508,7 +524,8 @@ impl Principled {
             } else {
                 1.0 / self.eta
             };
-            let r0 = tint(l.base, l.base.luminance()) * schlick_r0(eta_it);
+            let lum = tint_luminance(l.base, sp.wavelengths.as_ref());
+            let r0 = tint(l.base, lum) * schlick_r0(eta_it);
             fs += calc_schlick(r0, cos_h, self.eta) * ((1.0 - m) * st);
         }
         fs + Spectrum::splat((1.0 - m) * (1.0 - st) * f_diel)
@@ -682,7 +699,7 @@ impl Principled {
             }
             let sheen = self.sheen.eval(sp);
             if sheen > 0.0 && 1.0 - l.metallic > 0.0 {
-                let c = sheen_color(l.base, self.sheen_tint.eval(sp));
+                let c = sheen_color(l.base, self.sheen_tint.eval(sp), sp.wavelengths.as_ref());
                 value += c * (sheen * (1.0 - l.metallic) * schlick_weight(cos_d.abs()));
             }
         }
@@ -929,15 +946,14 @@ impl Principled {
                 _ => None,
             };
             let base = p.spectrum("base_color", 0.5)?;
-            let metal = match (&base, &roughness, &anisotropic, &aniso) {
-                (SpectrumParam::Const(b), _, _, Some(t)) => {
-                    Some(t.ms(0.0, &FresnelFit::schlick(*b)))
-                }
-                (SpectrumParam::Const(b), FloatParam::Const(r), FloatParam::Const(a), None) => {
+            // (RGB mode only: a `<spectrum>` base colour's RGB value, as a constant's)
+            let metal = match (base.rgb_constant(), &roughness, &anisotropic, &aniso) {
+                (Some(b), _, _, Some(t)) => Some(t.ms(0.0, &FresnelFit::schlick(b))),
+                (Some(b), FloatParam::Const(r), FloatParam::Const(a), None) => {
                     let (au, av) = dist_params(*a, *r);
                     Some(
                         conductor_tables(MicrofacetType::Ggx)
-                            .ms(table_alpha(au, av), &FresnelFit::schlick(*b)),
+                            .ms(table_alpha(au, av), &FresnelFit::schlick(b)),
                     )
                 }
                 _ => None,

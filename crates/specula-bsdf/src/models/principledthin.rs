@@ -34,6 +34,7 @@
 
 use super::principled::{
     calc_schlick, compatible, diffuse_factor, ggx, schlick_r0, schlick_weight, sheen_color, tint,
+    tint_luminance,
 };
 use crate::bsdf::*;
 use crate::frame::reflect;
@@ -172,7 +173,8 @@ impl PrincipledThin {
                 if reflect {
                     let spec_tint = self.spec_tint.eval(sp);
                     let f_thin = if spec_tint != 0.0 {
-                        let r0 = tint(base, base.luminance()) * schlick_r0(eta);
+                        let lum = tint_luminance(base, sp.wavelengths.as_ref());
+                        let r0 = tint(base, lum) * schlick_r0(eta);
                         let fs = calc_schlick(r0, wi.dot(wh), eta);
                         Spectrum::splat(f * (1.0 - spec_tint)) + fs * spec_tint
                     } else {
@@ -194,7 +196,7 @@ impl PrincipledThin {
                 value += base * (w * FRAC_1_PI * kd);
                 let sheen = self.sheen.eval(sp);
                 if sheen > 0.0 {
-                    let c = sheen_color(base, self.sheen_tint.eval(sp));
+                    let c = sheen_color(base, self.sheen_tint.eval(sp), sp.wavelengths.as_ref());
                     value += c * (sheen * w * schlick_weight(cos_d.abs()));
                 }
             }

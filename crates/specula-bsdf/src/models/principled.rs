@@ -184,29 +184,61 @@ pub(crate) fn ggx(anisotropic: f32, roughness: f32) -> MicrofacetDistribution {
     MicrofacetDistribution::new(MicrofacetType::Ggx, ax, ay, true)
 }
 
-/// The luminance the tints divide the base colour by: the RGB luminance in RGB mode; in
-/// spectral mode Mitsuba's `luminance(value, wavelengths)` (probed: 3.9.1's
-/// `mi.luminance`), the mean over the path's wavelengths of ȳ(λ)·base(λ), ȳ the CIE 1931
-/// luminous-efficiency curve (unnormalised, ȳ(555 nm) = 1).
+/// The luminance the tints divide the base colour by, per channel (`base` is `param`'s value
+/// at `sp`).
+///
+/// RGB mode: the RGB luminance of `base` (the same in every channel).
+///
+/// Spectral mode: what Mitsuba 3.9.1's spectral variants compute, in expectation. Mitsuba
+/// divides by `luminance(base, wavelengths)` (probed: `mi.luminance`), the mean over its
+/// path's four wavelengths of ȳ(λ)·base(λ) (ȳ the CIE 1931 luminous-efficiency curve,
+/// unnormalised: ȳ(555 nm) = 1), and its four wavelengths are one uniform number u and its
+/// shifts u + ¼, u + ½, u + ¾ (mod 1) through the inverse CDF of the wavelength density
+/// (`sample_shifted`). The luminance its channel at λ sees is therefore a function of λ alone:
+/// the mean of ȳ·base at λ and at the three wavelengths a quarter, half and three quarters of
+/// the CDF further on. Specula's paths carry three wavelengths a third apart, so each channel
+/// evaluates `param` at its own three Mitsuba companions and averages the four terms: the
+/// tinted lobes then agree with Mitsuba's in expectation wavelength by wavelength (taking the
+/// mean over Specula's own three wavelengths instead makes saturated tinted colours a few
+/// percent off).
 #[inline]
-pub(crate) fn tint_luminance(base: Spectrum, wl: Option<&Wavelengths>) -> f32 {
-    match wl {
-        None => base.luminance(),
-        Some(w) => {
-            let y = |k: usize| crate::spectral::cie::xyz_bar(w.0[k])[1] * base.0[k];
-            (y(0) + y(1) + y(2)) * (1.0 / 3.0)
-        }
-    }
+pub(crate) fn tint_luminance(param: &SpectrumParam, base: Spectrum, sp: &ShadingPoint) -> Spectrum {
+    use crate::spectral::cie;
+    let Some(w) = sp.wavelengths else {
+        return Spectrum::splat(base.luminance());
+    };
+    let y = |l: f32, v: f32| cie::xyz_bar(l)[1] * v;
+    crate::spectrum::Rgb(std::array::from_fn(|k| {
+        let u = cie::wavelength_cdf(w.0[k]);
+        let others = Wavelengths([1.0f32, 2.0, 3.0].map(|j| {
+            let mut uj = u + 0.25 * j;
+            if uj >= 1.0 {
+                uj -= 1.0;
+            }
+            cie::sample_wavelength(uj.min(1.0 - f32::EPSILON))
+        }));
+        let v = param.eval(&ShadingPoint {
+            wavelengths: Some(others),
+            ..*sp
+        });
+        (y(w.0[k], base.0[k])
+            + y(others.0[0], v.0[0])
+            + y(others.0[1], v.0[1])
+            + y(others.0[2], v.0[2]))
+            * 0.25
+    }))
 }
 
-/// `base / lum`, or white when the luminance is not positive.
+/// `base / lum` per channel, or white where the luminance is not positive.
 #[inline]
-pub(crate) fn tint(base: Spectrum, lum: f32) -> Spectrum {
-    if lum > 0.0 {
-        base / lum
-    } else {
-        Spectrum::ONE
-    }
+pub(crate) fn tint(base: Spectrum, lum: Spectrum) -> Spectrum {
+    crate::spectrum::Rgb(std::array::from_fn(|k| {
+        if lum.0[k] > 0.0 {
+            base.0[k] / lum.0[k]
+        } else {
+            1.0
+        }
+    }))
 }
 
 /// The diffuse, retro-reflection and fake-subsurface factor (without base/π): `ci`, `co`
@@ -227,14 +259,18 @@ pub(crate) fn diffuse_factor(ci: f32, co: f32, cos_d: f32, roughness: f32, flatn
     (f_diff + f_retro) * (1.0 - flatness) + f_ss * flatness
 }
 
-/// The sheen colour lerp(1, base/lum, sheen_tint) (lum: [`tint_luminance`] at the
-/// wavelengths `wl`).
+/// The sheen colour lerp(1, base/lum, sheen_tint) (`lum`: [`tint_luminance`], computed
+/// only when the tint is not 0).
 #[inline]
-pub(crate) fn sheen_color(base: Spectrum, sheen_tint: f32, wl: Option<&Wavelengths>) -> Spectrum {
+pub(crate) fn sheen_color(
+    base: Spectrum,
+    sheen_tint: f32,
+    lum: impl FnOnce() -> Spectrum,
+) -> Spectrum {
     if sheen_tint == 0.0 {
         return Spectrum::ONE;
     }
-    let c = tint(base, tint_luminance(base, wl));
+    let c = tint(base, lum());
     Spectrum::splat(1.0 - sheen_tint) + c * sheen_tint
 }
 
@@ -524,7 +560,7 @@ impl Principled {
             } else {
                 1.0 / self.eta
             };
-            let lum = tint_luminance(l.base, sp.wavelengths.as_ref());
+            let lum = tint_luminance(&self.base_color, l.base, sp);
             let r0 = tint(l.base, lum) * schlick_r0(eta_it);
             fs += calc_schlick(r0, cos_h, self.eta) * ((1.0 - m) * st);
         }
@@ -699,7 +735,9 @@ impl Principled {
             }
             let sheen = self.sheen.eval(sp);
             if sheen > 0.0 && 1.0 - l.metallic > 0.0 {
-                let c = sheen_color(l.base, self.sheen_tint.eval(sp), sp.wavelengths.as_ref());
+                let c = sheen_color(l.base, self.sheen_tint.eval(sp), || {
+                    tint_luminance(&self.base_color, l.base, sp)
+                });
                 value += c * (sheen * (1.0 - l.metallic) * schlick_weight(cos_d.abs()));
             }
         }

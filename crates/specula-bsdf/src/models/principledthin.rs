@@ -173,7 +173,7 @@ impl PrincipledThin {
                 if reflect {
                     let spec_tint = self.spec_tint.eval(sp);
                     let f_thin = if spec_tint != 0.0 {
-                        let lum = tint_luminance(base, sp.wavelengths.as_ref());
+                        let lum = tint_luminance(&self.base_color, base, sp);
                         let r0 = tint(base, lum) * schlick_r0(eta);
                         let fs = calc_schlick(r0, wi.dot(wh), eta);
                         Spectrum::splat(f * (1.0 - spec_tint)) + fs * spec_tint
@@ -196,7 +196,9 @@ impl PrincipledThin {
                 value += base * (w * FRAC_1_PI * kd);
                 let sheen = self.sheen.eval(sp);
                 if sheen > 0.0 {
-                    let c = sheen_color(base, self.sheen_tint.eval(sp), sp.wavelengths.as_ref());
+                    let c = sheen_color(base, self.sheen_tint.eval(sp), || {
+                        tint_luminance(&self.base_color, base, sp)
+                    });
                     value += c * (sheen * w * schlick_weight(cos_d.abs()));
                 }
             }

@@ -18,6 +18,10 @@ tests/data/spectral_xml/*.xml (or the ones named) it renders with Mitsuba's
 - `metrics.json`: per scene `ref_spp`, `resolution`, `ref_mean` and Mitsuba's own error at 64
   spp against that reference averaged over SEEDS = 2 seeds (`mitsuba_64spp_relmse`,
   `mitsuba_64spp_block8`, `mitsuba_64spp_mean_ratio`; the metrics of ../shared/README.md).
+The same is done for SHARED: scenes of ../shared that are written with `<spectrum>` values (Mitsuba's
+documentation Cornell box of its spectral variants), at a reduced film size set through
+`mi.traverse` (what Specula's `LoadOptions::size` reproduces); their metrics entries name the
+file (`shared`, relative to ../shared) and the test skips them where ../shared is absent.
 It also renders each scene with `llvm_ad_rgb` at 64 spp and records its mean
 (`rgb_mode_mean`, or the error the RGB variant gives): how differently the RGB variants see the same file (the spectra converted
 to RGB when the scene loads), for the report.
@@ -32,6 +36,7 @@ import mitsuba as mi
 import numpy as np
 
 DIR = pathlib.Path("tests/data/spectral_xml")
+SHARED = {"variants_cbox_spectral": ("mitsuba-data/docs/scenes/variants_cbox_spectral.xml", (125, 125))}
 REF_SPP = 4096
 PASS_SPP = 256
 SEEDS = 2
@@ -54,26 +59,38 @@ def defaults(text):
     return {m.group(1): m.group(2) for m in re.finditer(r'<default name="(\w+)" value="([^"]*)"', text)}
 
 
+def load(name):
+    """The scene `name` and its film size."""
+    if name in SHARED:
+        rel, (w, h) = SHARED[name]
+        scene = mi.load_file(str(pathlib.Path("../shared") / rel))
+        params = mi.traverse(scene)
+        key = next(k for k in params.keys() if k.endswith("film.size"))
+        params[key] = [w, h]
+        params.update()
+        return scene, (w, h)
+    path = DIR / f"{name}.xml"
+    d = defaults(path.read_text())
+    return mi.load_file(str(path)), (int(d["resx"]), int(d["resy"]))
+
+
 def main():
     mpath = DIR / "metrics.json"
     metrics = json.loads(mpath.read_text()) if mpath.exists() else {}
-    names = sys.argv[1:] or sorted(p.stem for p in DIR.glob("*.xml"))
+    names = sys.argv[1:] or sorted(p.stem for p in DIR.glob("*.xml")) + sorted(SHARED)
     rgb_means = {}
     mi.set_variant("llvm_ad_rgb")
     for name in names:
         try:
-            scene = mi.load_file(str(DIR / f"{name}.xml"))
+            scene, _ = load(name)
             img = np.array(mi.render(scene, spp=64, seed=0))
             rgb_means[name] = img[..., :3].mean((0, 1)).tolist()
         except Exception as e:  # noqa: BLE001 - e.g. blackbody: "Not implemented for non-spectral modes"
             rgb_means[name] = str(e.__cause__ or e).splitlines()[0][:200]
     mi.set_variant("llvm_ad_spectral")
     for name in names:
-        path = DIR / f"{name}.xml"
-        d = defaults(path.read_text())
-        w, h = int(d["resx"]), int(d["resy"])
         t0 = time.time()
-        scene = mi.load_file(str(path))
+        scene, (w, h) = load(name)
         acc = np.zeros((h, w, 3))
         for i in range(REF_SPP // PASS_SPP):
             img = np.array(mi.render(scene, spp=PASS_SPP, seed=1000 + i), dtype=np.float64)
@@ -87,6 +104,7 @@ def main():
             b8.append(relmse(block(img), block(ref)))
             ratio.append(img.mean((0, 1)) / ref.mean((0, 1)))
         metrics[name] = {
+            **({"shared": SHARED[name][0]} if name in SHARED else {}),
             "ref_spp": REF_SPP,
             "resolution": [w, h],
             "ref_mean": ref.mean((0, 1)).tolist(),

@@ -2,7 +2,9 @@
 //! `tests/data/spectral_xml/` (wavelength lists with a narrow spike and values above 1, `.spd`
 //! files for a reflectance, a lamp and a conductor's η and k, a `regular` spectrum, a
 //! `blackbody` area light, a uniform-valued and an `srgb`-spectrum environment, a spot with a
-//! wavelength list, principled with a spectral base colour and its tints) rendered with
+//! wavelength list, principled with a spectral base colour and its tints) and Mitsuba's
+//! documentation Cornell box for its spectral variants (`../shared`, at 125×125; skipped
+//! without `../shared`) rendered with
 //! [`Scene::set_spectral`] at 64 spp and judged against Mitsuba 3.9.1 `llvm_ad_spectral`
 //! references (`scripts/make_spectral_xml_references.py`, 4096 spp) with the criteria of the
 //! other conformance tests and Mitsuba's own 64-spp figures in that directory's
@@ -12,7 +14,7 @@
 use specula_render::image_io::read_image;
 use specula_render::metrics::{Criteria, RgbImage};
 use specula_render::render::{render, RenderOptions};
-use specula_render::scene::Scene;
+use specula_render::scene::{LoadOptions, Scene};
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
@@ -29,12 +31,37 @@ fn spectrum_scenes_match_mitsuba_spectral_references() {
     let metrics = metrics();
     let mut names: Vec<&String> = metrics.as_object().unwrap().keys().collect();
     names.sort();
-    assert_eq!(names, ["emitters", "materials", "reflectances"]);
+    assert_eq!(
+        names,
+        [
+            "emitters",
+            "materials",
+            "reflectances",
+            "variants_cbox_spectral"
+        ]
+    );
     let mut failures = Vec::new();
     let mut rows = Vec::new();
     for name in names {
         let m = &metrics[name];
-        let mut scene = Scene::load(&data().join(format!("{name}.xml")), &[]).unwrap();
+        let res = m["resolution"].as_array().unwrap();
+        let size = (
+            res[0].as_u64().unwrap() as usize,
+            res[1].as_u64().unwrap() as usize,
+        );
+        // a scene of ../shared (skipped where it is absent), at the reference's film size
+        let path = match m["shared"].as_str() {
+            None => data().join(format!("{name}.xml")),
+            Some(rel) => match specula_testdata::shared(rel) {
+                Some(p) => p,
+                None => continue,
+            },
+        };
+        let opts = LoadOptions {
+            size: Some(size),
+            ..Default::default()
+        };
+        let mut scene = Scene::load_with(&path, &[], &opts).unwrap();
         scene.set_spectral(true).unwrap();
         let opts = RenderOptions {
             spp: 64,

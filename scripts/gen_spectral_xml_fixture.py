@@ -25,6 +25,8 @@ Writes tests/data/spectral_xml/fixture.json:
   (`roughplastic`: 2e-4; `roughconductor` is only evaluated at the first two direction pairs:
   at the third, Specula's RGB-mode value already differs by 3e-3, 0.187094 against Mitsuba's
   0.187658 for eta 1.5, k 2, alpha 0.3).
+  Records of a `checkerboard` with spectral colours also give the texture coordinates `uv`
+  (elsewhere 0.5, 0.5).
 - `emitter`: records {xml (an emitter in a shape, or a point light), wl, value}: an area
   emitter's `eval` (radiance) or a point light's `sample_direction` weight at distance 1,
   at wavelengths (a, b, c, c).
@@ -51,18 +53,18 @@ def load(xml):
     return mi.load_string(xml)
 
 
-def frame_si(wi, wl):
+def frame_si(wi, wl, uv=(0.5, 0.5)):
     si = dr.zeros(mi.SurfaceInteraction3f)
     si.wi = mi.Vector3f(*wi)
     si.sh_frame = mi.Frame3f(mi.Vector3f(0, 0, 1))
     si.n = mi.Vector3f(0, 0, 1)
-    si.uv = mi.Point2f(0.5, 0.5)
+    si.uv = mi.Point2f(*uv)
     si.wavelengths = mi.Spectrum(*wl)
     return si
 
 
-def bsdf_eval(b, wi, wo, wl4):
-    v = b.eval(mi.BSDFContext(), frame_si(wi, wl4), mi.Vector3f(*wo))
+def bsdf_eval(b, wi, wo, wl4, uv=(0.5, 0.5)):
+    v = b.eval(mi.BSDFContext(), frame_si(wi, wl4, uv), mi.Vector3f(*wo))
     return [float(v[k]) for k in range(4)]
 
 
@@ -158,6 +160,16 @@ def main():
                 # u_k and its quarter shifts
                 v = [bsdf_eval(b, wi, wo, [lam(u + j / 4) for j in range(4)])[0] for u in us]
                 bsdf.append({"xml": xml, "wl": wl, "wi": wi, "wo": wo, "value": v, "tol": EXACT})
+    # a checkerboard with spectral colours, at a point of each colour
+    xml = ('<bsdf type="diffuse"><texture type="checkerboard" name="reflectance">'
+           '<spectrum name="color0" value="360:0.04, 528:0.04, 538:0.95, 552:0.95, 562:0.04, 830:0.04"/>'
+           '<spectrum name="color1" filename="floor.spd"/></texture></bsdf>')
+    b = load(xml.replace("<bsdf ", '<bsdf version="3.0.0" ', 1).replace("<texture ", '<texture version="3.0.0" ', 0))
+    for uv in [(0.25, 0.25), (0.75, 0.25)]:
+        for wl in WL:
+            wi, wo = DIRS[0]
+            v = bsdf_eval(b, wi, wo, wl + [wl[2]], uv)
+            bsdf.append({"xml": xml, "uv": list(uv), "wl": wl, "wi": wi, "wo": wo, "value": v[:3], "tol": EXACT})
     emitter = []
     for spec in EMITTERS:
         xml = f'<shape type="rectangle"><emitter type="area">{spec}</emitter></shape>'

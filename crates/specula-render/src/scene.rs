@@ -754,7 +754,14 @@ impl Builder {
                 let c0 = n.rgb("color0", [0.4; 3])?;
                 let c1 = n.rgb("color1", [0.2; 3])?;
                 n.check_unused(&["color0", "color1", "to_uv"])?;
-                Arc::new(Checkerboard::new(Rgb(c0), Rgb(c1), to_uv))
+                let mut t = Checkerboard::new(Rgb(c0), Rgb(c1), to_uv);
+                // `<spectrum>` colours, for spectral mode (a constant is grey either way)
+                for (k, name) in ["color0", "color1"].into_iter().enumerate() {
+                    if let Some(PropValue::Spectrum(s)) = n.prop(name).map(|p| &p.value) {
+                        t.spectra[k] = s.as_constant().is_none().then(|| s.curve());
+                    }
+                }
+                Arc::new(t)
             }
             "bitmap" => {
                 let file = n.string_opt("filename")?.ok_or_else(|| {

@@ -132,7 +132,7 @@ fn close(got: [f32; 3], want: glam::Vec3, tol: f32) -> bool {
 
 /// BSDFs whose parameters are `<spectrum>` values (wavelength lists, `.spd` files, `regular`,
 /// `uniform`, `d65`, `srgb`; conductors' η and k; principled's and principledthin's base
-/// colour with their `spec_tint` and `sheen_tint`) evaluated at fixed wavelengths, against
+/// colour with their `spec_tint` and `sheen_tint`; a checkerboard's colours) evaluated at fixed wavelengths, against
 /// Mitsuba 3.9.1 `scalar_spectral` (`scripts/gen_spectral_xml_fixture.py`: f·|cos θo| to
 /// 1e-4 relative, 2e-2 for the two records that go through an RGB upsampling). The principled
 /// records check the tints' luminance: Mitsuba's mean of ȳ(λ)·base(λ) over the wavelengths.
@@ -149,8 +149,12 @@ fn bsdfs_with_spectrum_values_match_mitsuba_at_fixed_wavelengths() {
         let b = specula_render::scene::bsdf_from_xml_str(xml, "<fixture>", &data())
             .unwrap_or_else(|e| panic!("{xml}: {e}"));
         let wl = vec3(&r["wl"]);
+        let uv = r.get("uv").map_or(glam::Vec2::splat(0.5), |v| {
+            let v = vec3(&serde_json::json!([v[0], v[1], 0.0]));
+            glam::Vec2::new(v.x, v.y)
+        });
         let sp = ShadingPoint {
-            uv: glam::Vec2::splat(0.5),
+            uv,
             wavelengths: Some(Wavelengths(wl.to_array())),
             ..Default::default()
         };

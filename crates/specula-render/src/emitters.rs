@@ -29,6 +29,12 @@
 //!   `to_world` · (0, 0, 1) (not normalised, as Mitsuba) and the direction d from the light to
 //!   the point: irradiance E·scale·π on a plane facing the projector at unit depth.
 //!
+//! A `<spectrum>` value of `point`, `directional`, `constant`, `spot` or `projector` (without
+//! an image) is kept beside its RGB value (`spectrum` fields, [`light_spectrum`]): RGB mode
+//! uses the RGB value (the spectrum converted as Mitsuba's RGB variants do), spectral mode
+//! emits the spectrum itself (`crate::spectral`); a spot's texture then multiplies it as an
+//! upsampled reflectance, as in Mitsuba.
+//!
 //! Importance sampling of `envmap` differs from Mitsuba's (a bilinear `Hierarchical2D` warp over
 //! the padded pixel grid) but is unbiased and consistent with [`Emitter::pdf_direction`]: the
 //! cells between four neighbouring pixels of the bilinear lookup are chosen with probability
@@ -1571,6 +1577,57 @@ mod tests {
         let text = format!("<scene version=\"3.0.0\">\n{body}\n</scene>\n");
         let root = crate::xml::parse_scene_str(&text, "test.xml", Path::new("."), &[])?;
         Emitter::from_node(&root.children[0], &specula_testdata::root().join("scenes"))
+    }
+
+    /// A `<spectrum>` value is kept for spectral mode beside its RGB value (RGB mode reads
+    /// only the latter); `<rgb>` values and `envmap` have none; a negative emission spectrum
+    /// is an error at the property.
+    #[test]
+    fn spectrum_values_are_kept_for_spectral_mode() {
+        let w = specula_bsdf::Wavelengths([450.0, 500.0, 700.0]);
+        for (xml, want) in [
+            (
+                r#"<emitter type="point"><spectrum name="intensity" value="400:0.2, 500:1.5, 600:0.3"/></emitter>"#,
+                [0.85, 1.5, 0.0],
+            ),
+            (
+                r#"<emitter type="directional"><spectrum name="irradiance" value="0.5"/></emitter>"#,
+                [0.5; 3],
+            ),
+            (
+                r#"<emitter type="constant"><spectrum name="radiance" type="uniform"><float name="value" value="2"/></spectrum></emitter>"#,
+                [2.0; 3],
+            ),
+            (
+                r#"<emitter type="spot"><spectrum name="intensity" value="400:1, 800:1"/></emitter>"#,
+                [1.0; 3],
+            ),
+            (
+                r#"<emitter type="projector"><spectrum name="irradiance" value="400:3, 800:3"/></emitter>"#,
+                [3.0; 3],
+            ),
+        ] {
+            let e = node(xml).unwrap();
+            let (curve, rgb) = e.spectrum().unwrap_or_else(|| panic!("{xml}"));
+            let v = curve.eval_at(&w);
+            for k in 0..3 {
+                assert!((v.0[k] - want[k]).abs() < 1e-6, "{xml}: {v:?}");
+            }
+            // the RGB value RGB mode uses is the converted spectrum's
+            assert!(rgb.max_component() > 0.0, "{xml}");
+        }
+        let e = node(r#"<emitter type="point"><rgb name="intensity" value="1, 2, 3"/></emitter>"#);
+        assert!(e.unwrap().spectrum().is_none());
+        let e = node(
+            r#"<emitter type="point">
+                <spectrum name="intensity" value="400:1, 500:-0.5, 600:1"/></emitter>"#,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("test.xml:3:17") && e.contains("non-negative"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -18,7 +18,7 @@
 //!    radiance (area, point, spot, directional, constant, projector — whatever an emitter
 //!    returns) is converted where the integrator receives it, by [`emission`] (Mitsuba's `d65`
 //!    spectrum: an RGB-white emitter is D65), and an emitter whose value is a `<spectrum>`
-//!    emits that spectrum instead ([`AreaRadiance::emission`], [`Scene::light_weight`],
+//!    emits that spectrum instead ([`AreaRadiance::emission`], `Scene::light_weight`,
 //!    [`infinite_emission`]); an `envmap` upsamples its texels and interpolates as Mitsuba's
 //!    does ([`crate::emitters::Envmap::eval_spectral`]);
 //! 3. the film receives the result developed to linear sRGB through the CIE 1931 observer

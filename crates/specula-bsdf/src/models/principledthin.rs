@@ -28,6 +28,9 @@
 //! wi·h > 0 and wo·h < 0 (h the half vector of wi and the mirror image of wo), conditions that
 //! are not symmetric in wi and wo. The other lobes are.
 //!
+//! Spectral mode: the tints use Mitsuba's spectral luminance, as `principled`'s do
+//! (`principled::tint_luminance`).
+//!
 //! Deliberate differences from Mitsuba 3.9: [`BsdfModel::flags`] lists only the lobes that
 //! exist (Mitsuba always lists diffuse transmission and glossy reflection); constant weights
 //! outside their ranges are errors.

@@ -526,6 +526,52 @@ mod tests {
         assert!((planck(500.0, 5000.0) / 12107.1689453125 - 1.0).abs() < 1e-6);
     }
 
+    /// Values in spectral mode (Mitsuba 3.9.1 `scalar_spectral`, a diffuse reflectance or an
+    /// area emitter's radiance of each form evaluated at fixed wavelengths; the fixture test
+    /// `tests/spectral_xml.rs` compares many more).
+    #[test]
+    fn spectral_mode_values() {
+        let at = |s: &Spectrum, w: [f32; 3]| s.eval_at(&Wavelengths(w)).0;
+        // a list: its interpolant, zero outside, not clamped
+        let s = Spectrum::Sampled(Sampled::parse_pairs("400:0.2, 500:1.5, 600:0.3").unwrap());
+        assert_eq!(at(&s, [450.0, 500.0, 650.0]), [0.85, 1.5, 0.0]);
+        assert_eq!(s.eval(380.0), 0.0);
+        // constants and uniform: flat, on emitters too (not D65)
+        assert_eq!(
+            at(&Spectrum::Constant(0.5), [400.0, 555.0, 700.0]),
+            [0.5; 3]
+        );
+        assert_eq!(at(&Spectrum::Uniform(0.7), [400.0, 555.0, 700.0]), [0.7; 3]);
+        // blackbody: Planck's law, zero outside the range
+        let b = Spectrum::Blackbody {
+            temperature: 5000.0,
+            range: [450.0, 650.0],
+        };
+        let v = at(&b, [400.0, 500.0, 600.0]);
+        assert_eq!(v[0], 0.0);
+        assert!((v[1] / 12107.169 - 1.0).abs() < 1e-5, "{v:?}");
+        assert!((v[2] / 12762.37 - 1.0).abs() < 1e-5, "{v:?}");
+        // d65: the normalised illuminant × scale (0.83593, 1.104615, 0.909177 at scale 1)
+        let d = Spectrum::D65 {
+            color: [1.0; 3],
+            scale: 2.0,
+        };
+        let v = at(&d, [400.0, 500.0, 600.0]);
+        for (x, m) in v.iter().zip([0.83593, 1.104615, 0.909177]) {
+            assert!((x / (2.0 * m) - 1.0).abs() < 1e-5, "{v:?}");
+        }
+        // srgb: an upsampled reflectance (grey exactly flat), also on emitters
+        let g = Spectrum::Srgb {
+            color: [0.25; 3],
+            unbounded: false,
+        };
+        assert_eq!(at(&g, [400.0, 500.0, 600.0]), [0.25; 3]);
+        assert_eq!(g.eval(500.0), 0.25);
+        // what an emitter's check reads
+        assert_eq!(s.min_sample(), Some(0.2));
+        assert_eq!(b.min_sample(), None);
+    }
+
     #[test]
     fn malformed() {
         for (s, msg) in [

@@ -1095,7 +1095,7 @@ pub fn light_spectrum(n: &Node, name: &str) -> Result<Option<EmissionSpectrum>> 
     let crate::xml::PropValue::Spectrum(s) = &p.value else {
         return Ok(None);
     };
-    if let Some(m) = s.min_sample().filter(|m| !(*m >= 0.0)) {
+    if let Some(m) = s.min_sample().filter(|m| *m < 0.0) {
         return Err(SceneError::new(
             Some(p.loc.clone()),
             format!(
@@ -1610,8 +1610,8 @@ mod tests {
             let e = node(xml).unwrap();
             let (curve, rgb) = e.spectrum().unwrap_or_else(|| panic!("{xml}"));
             let v = curve.eval_at(&w);
-            for k in 0..3 {
-                assert!((v.0[k] - want[k]).abs() < 1e-6, "{xml}: {v:?}");
+            for (x, y) in v.0.iter().zip(want) {
+                assert!((x - y).abs() < 1e-6, "{xml}: {v:?}");
             }
             // the RGB value RGB mode uses is the converted spectrum's
             assert!(rgb.max_component() > 0.0, "{xml}");

@@ -55,7 +55,7 @@ use crate::integrator::{Counters, LightSample};
 use crate::media::{is_null_bsdf, FreeFlight};
 use crate::sampler::Sampler;
 use crate::scene::{Light, PathSettings, Scene};
-use crate::spectral::{emission, infinite_emission};
+use crate::spectral::infinite_emission;
 use crate::xml::Node;
 use glam::Vec3;
 use specula_bsdf::spectral::dispersion::collapse_dead_channels;
@@ -361,7 +361,7 @@ impl Scene {
                                 self.area_light_pdf(hit.shape, last_p, si.p, si.n_geo),
                             )
                         };
-                        let le = emission(radiance.eval(si.uv, si.p), wl);
+                        let le = radiance.emission(si.uv, si.p, wl);
                         result += throughput * le * (w / r_u.mean());
                     }
                 }

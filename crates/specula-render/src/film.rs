@@ -185,6 +185,21 @@ impl RFilter {
     }
 }
 
+/// ⌊x⌋ of a finite `x` (|x| < 2⁶³) without a library call (x86-64's baseline has no
+/// rounding instruction): truncation, one lower where it rounded up.
+#[inline(always)]
+fn floor_i64(x: f32) -> i64 {
+    let i = x as i64;
+    i - ((i as f32) > x) as i64
+}
+
+/// ⌈x⌉ of a finite `x` (|x| < 2⁶³), as [`floor_i64`].
+#[inline(always)]
+fn ceil_i64(x: f32) -> i64 {
+    let i = x as i64;
+    i + ((i as f32) < x) as i64
+}
+
 /// (r, g, b, 1): a sample's value and its unit weight, scaled together by the filter weight.
 #[inline(always)]
 fn rgb1(v: Rgb) -> Vec4 {
@@ -253,8 +268,8 @@ impl ImageBlock {
         }
         let (ew, eh) = self.stored_size();
         if let RFilter::Box = self.filter {
-            let x = film_pos.x.floor() as i64 - self.offset.0 as i64;
-            let y = film_pos.y.floor() as i64 - self.offset.1 as i64;
+            let x = floor_i64(film_pos.x) - self.offset.0 as i64;
+            let y = floor_i64(film_pos.y) - self.offset.1 as i64;
             if x >= 0 && y >= 0 && (x as usize) < self.size.0 && (y as usize) < self.size.1 {
                 self.add(y as usize * ew + x as usize, value, 1.0);
             }
@@ -265,10 +280,10 @@ impl ImageBlock {
         let b = self.border as f32;
         let px = film_pos.x + (b - self.offset.0 as f32 - 0.5);
         let py = film_pos.y + (b - self.offset.1 as f32 - 0.5);
-        let x0 = ((px - r).ceil() as i64).max(0);
-        let y0 = ((py - r).ceil() as i64).max(0);
-        let x1 = ((px + r).floor() as i64).min(ew as i64 - 1);
-        let y1 = ((py + r).floor() as i64).min(eh as i64 - 1);
+        let x0 = ceil_i64(px - r).max(0);
+        let y0 = ceil_i64(py - r).max(0);
+        let x1 = floor_i64(px + r).min(ew as i64 - 1);
+        let y1 = floor_i64(py + r).min(eh as i64 - 1);
         if x0 > x1 || y0 > y1 {
             return;
         }
@@ -511,6 +526,29 @@ mod tests {
             assert_eq!(g.eval(x), g.eval(-x));
         }
         assert!(g.eval(2.0).abs() < 1e-5 && g.eval(2.01) == 0.0 && g.eval(5.0) == 0.0);
+    }
+
+    #[test]
+    fn floor_and_ceil_without_libm() {
+        let mut rng = Pcg32::new(1, 4);
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            2.5,
+            -2.5,
+            1e-30,
+            -1e-30,
+            0.999_999_9,
+            -0.999_999_9,
+        ];
+        xs.extend((0..10_000).map(|_| (rng.next_f32() - 0.5) * 3e5));
+        xs.extend((0..10_000).map(|_| (rng.next_f32() - 0.5) * 8.0));
+        for x in xs {
+            assert_eq!(floor_i64(x), x.floor() as i64, "{x}");
+            assert_eq!(ceil_i64(x), x.ceil() as i64, "{x}");
+        }
     }
 
     #[test]

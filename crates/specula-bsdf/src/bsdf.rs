@@ -231,6 +231,12 @@ pub trait Texture: Send + Sync + fmt::Debug {
     fn mesh_attribute(&self) -> Option<&str> {
         None
     }
+    /// In spectral mode, the texture's value at the wavelengths `w` when it holds spectra of
+    /// its own (a `checkerboard` whose colours are `<spectrum>` values); `None` (the default)
+    /// to have its RGB value upsampled like any other.
+    fn eval_spectral(&self, _sp: &ShadingPoint, _w: &Wavelengths) -> Option<Spectrum> {
+        None
+    }
 }
 
 /// A spectrum known at every wavelength (a named conductor's measured η(λ) or k(λ), a
@@ -238,6 +244,12 @@ pub trait Texture: Send + Sync + fmt::Debug {
 pub trait SpectralCurve: Send + Sync + fmt::Debug {
     /// The value at wavelength `lambda` (nm).
     fn eval(&self, lambda: f32) -> f32;
+    /// The values at the three wavelengths of a path (by default [`SpectralCurve::eval`] at
+    /// each; a curve defined through an RGB upsampling evaluates all three at once).
+    #[inline]
+    fn eval_at(&self, w: &Wavelengths) -> Spectrum {
+        Spectrum::new(self.eval(w.0[0]), self.eval(w.0[1]), self.eval(w.0[2]))
+    }
 }
 
 /// A colour parameter: a constant or a texture, looked up per shading point.
@@ -266,18 +278,15 @@ impl SpectrumParam {
                 None => *c,
                 Some(w) => crate::spectral::upsample::unbounded(*c, w),
             },
-            SpectrumParam::Texture(t) => {
-                let v = t.eval(sp);
-                match &sp.wavelengths {
-                    None => v,
-                    Some(w) => crate::spectral::upsample::unbounded(v, w),
-                }
-            }
+            SpectrumParam::Texture(t) => match &sp.wavelengths {
+                None => t.eval(sp),
+                Some(w) => t
+                    .eval_spectral(sp, w)
+                    .unwrap_or_else(|| crate::spectral::upsample::unbounded(t.eval(sp), w)),
+            },
             SpectrumParam::Spectral { rgb, curve } => match &sp.wavelengths {
                 None => *rgb,
-                Some(w) => {
-                    Spectrum::new(curve.eval(w.0[0]), curve.eval(w.0[1]), curve.eval(w.0[2]))
-                }
+                Some(w) => curve.eval_at(w),
             },
         }
     }

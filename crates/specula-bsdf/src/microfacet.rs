@@ -157,6 +157,12 @@ impl MicrofacetDistribution {
     /// Sample a microfacet normal; returns (m, pdf). `wi` must be in the upper hemisphere.
     #[inline]
     pub fn sample(&self, wi: Vec3, u: Vec2) -> (Vec3, f32) {
+        if self.sample_visible && self.kind == MicrofacetType::Beckmann && !self.rational_g1 {
+            // the sampler's normalisation is G1(wi): no second evaluation of Λ
+            let (m, g1_wi) = self.sample_beckmann_visible(wi, u);
+            let g1 = if wi.dot(m) * wi.z <= 0.0 { 0.0 } else { g1_wi };
+            return (m, self.eval(m) * g1 * wi.dot(m).abs() / wi.z);
+        }
         let m = if self.sample_visible {
             self.sample_visible_normal(wi, u)
         } else {
@@ -219,7 +225,7 @@ impl MicrofacetDistribution {
             .iter()
             .map(|&u| {
                 let u = u.clamp(1e-6, 1.0 - 1e-6);
-                let guess = table.guess(cos_theta, u);
+                let guess = table.guess(cdf.tan_theta, u);
                 cdf.invert(u, cdf.s_max - (cdf.s_max + 1.0) * (1.0 - guess))
             })
             .collect();
@@ -243,12 +249,22 @@ impl MicrofacetDistribution {
         }
     }
 
+    /// [`Self::sample_visible_normal`] for Beckmann, and Smith's exact G1(wi) = 2 / C(s_max),
+    /// the normalisation of the visible slopes' CDF.
+    #[inline]
+    fn sample_beckmann_visible(&self, wi: Vec3, u: Vec2) -> (Vec3, f32) {
+        let wi_s = Vec3::new(self.alpha_u * wi.x, self.alpha_v * wi.y, wi.z).normalize();
+        let (m_s, c_max) = sample_beckmann_vndf_unit(wi_s, u);
+        let m = Vec3::new(self.alpha_u * m_s.x, self.alpha_v * m_s.y, m_s.z.max(0.0)).normalize();
+        (m, 2.0 / c_max)
+    }
+
     fn sample_visible_normal(&self, wi: Vec3, u: Vec2) -> Vec3 {
         // stretch to the configuration of unit roughness
         let wi_s = Vec3::new(self.alpha_u * wi.x, self.alpha_v * wi.y, wi.z).normalize();
         let m_s = match self.kind {
             MicrofacetType::Ggx => sample_ggx_vndf_unit(wi_s, u),
-            MicrofacetType::Beckmann => sample_beckmann_vndf_unit(wi_s, u),
+            MicrofacetType::Beckmann => sample_beckmann_vndf_unit(wi_s, u).0,
         };
         // unstretch the normal (normals transform with the inverse transpose)
         Vec3::new(self.alpha_u * m_s.x, self.alpha_v * m_s.y, m_s.z.max(0.0)).normalize()
@@ -270,11 +286,18 @@ impl BeckmannSlopeCdf {
     fn new(cos_theta: f32) -> Self {
         let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
         let tan_theta = sin_theta / cos_theta;
-        let s_max = if tan_theta > 0.0 {
-            erf(1.0 / tan_theta)
-        } else {
-            1.0
-        };
+        // erf(cotθ) = 1 − erfc(cotθ) in single precision: s_max is only compared with and
+        // added to O(1) values
+        // beyond cotθ = 9, erfc(cotθ) < 5e-37 and tanθ e^(−cot²θ) < 1e-36: s_max = 1 and
+        // C(s_max) = 2 exactly in f32 (and the exponentials would underflow, which is slow)
+        if tan_theta < 1.0 / 9.0 {
+            return BeckmannSlopeCdf {
+                tan_theta,
+                s_max: 1.0,
+                c_max: 2.0,
+            };
+        }
+        let s_max = 1.0 - crate::math::erfc32(1.0 / tan_theta);
         let c_max =
             1.0 + s_max + Self::INV_SQRT_PI * tan_theta * (-(1.0 / tan_theta).powi(2)).exp();
         BeckmannSlopeCdf {
@@ -282,6 +305,31 @@ impl BeckmannSlopeCdf {
             s_max,
             c_max,
         }
+    }
+
+    /// [`Self::invert`] by one Halley step from the first guess `s` (cubic convergence; the
+    /// step's second derivative costs no extra transcendental), accepted when the step is small
+    /// enough that the remaining error lies below single precision of the CDF (checked over a
+    /// dense grid of (cosθ, u) by `one_step_inversion_matches_the_safeguarded_loop`);
+    /// otherwise the safeguarded Newton loop takes over from there.
+    #[inline]
+    fn invert_halley(&self, u: f32, s: f32) -> f32 {
+        const HALF_SQRT_PI: f32 = 0.886_226_9;
+        let target = u * self.c_max;
+        let s0 = s.clamp(-1.0, self.s_max);
+        let x0 = erfinv_fast(s0);
+        let e = (-x0 * x0).exp();
+        let f = 1.0 + s0 + Self::INV_SQRT_PI * self.tan_theta * e - target;
+        let d1 = 1.0 - x0 * self.tan_theta;
+        let d2 = -self.tan_theta * HALF_SQRT_PI / e;
+        let denom = 2.0 * d1 * d1 - f * d2;
+        let step = 2.0 * f * d1 / denom;
+        let s1 = s0 - step;
+        if d1 > 0.0 && denom > 0.0 && step.abs() < HALLEY_MAX_STEP && s1 > -1.0 && s1 <= self.s_max
+        {
+            return erfinv_fast(s1);
+        }
+        self.invert(u, s0)
     }
 
     /// The slope x with C(erf(x)) = u · C(s_max), from the first guess `s`.
@@ -313,21 +361,30 @@ impl BeckmannSlopeCdf {
     }
 }
 
-/// The inverse of [`BeckmannSlopeCdf`] tabulated over (cosθ, u) as (s + 1)/(s_max + 1),
-/// interpolated bilinearly: only the first guess of the Newton iteration.
+/// The largest Halley step [`BeckmannSlopeCdf::invert_halley`] accepts (in the erf domain).
+const HALLEY_MAX_STEP: f32 = 2e-3;
+
+/// The inverse of [`BeckmannSlopeCdf`] tabulated over (tanθ / (1 + tanθ), u) as
+/// (s + 1)/(s_max + 1), interpolated bilinearly: only the first guess of the Newton
+/// iteration. (Rows uniform in tanθ / (1 + tanθ) rather than cosθ follow the CDF's shape near
+/// normal incidence, where tanθ grows as √(2(1 − cosθ)).)
 struct BeckmannGuessTable {
     /// In place (no heap): built lazily on the first sample, which must not allocate.
-    q: [f32; GUESS_COS * GUESS_U],
+    q: [f32; GUESS_TAN * GUESS_U],
 }
 
-const GUESS_COS: usize = 33;
+const GUESS_TAN: usize = 33;
 const GUESS_U: usize = 65;
 
 impl BeckmannGuessTable {
     fn build() -> Self {
-        let mut q = [0.0; GUESS_COS * GUESS_U];
-        for i in 0..GUESS_COS {
-            let cos_theta = (i as f32 / (GUESS_COS - 1) as f32).clamp(1e-6, 1.0);
+        let mut q = [0.0; GUESS_TAN * GUESS_U];
+        for i in 0..GUESS_TAN {
+            let t = i as f32 / (GUESS_TAN - 1) as f32;
+            // tanθ = t / (1 − t); the last row is grazing incidence (cosθ clamped as sampling
+            // clamps it)
+            let tan_theta = t / (1.0 - t);
+            let cos_theta = (1.0 / (1.0 + tan_theta * tan_theta).sqrt()).clamp(1e-6, 1.0);
             let cdf = BeckmannSlopeCdf::new(cos_theta);
             for j in 0..GUESS_U {
                 let u = (j as f32 / (GUESS_U - 1) as f32).clamp(1e-6, 1.0 - 1e-6);
@@ -341,10 +398,15 @@ impl BeckmannGuessTable {
     }
 
     #[inline]
-    fn guess(&self, cos_theta: f32, u: f32) -> f32 {
-        let fc = cos_theta * (GUESS_COS - 1) as f32;
+    fn guess(&self, tan_theta: f32, u: f32) -> f32 {
+        let t = if tan_theta.is_finite() {
+            tan_theta / (1.0 + tan_theta)
+        } else {
+            1.0
+        };
+        let fc = t * (GUESS_TAN - 1) as f32;
         let fu = u * (GUESS_U - 1) as f32;
-        let i = (fc as usize).min(GUESS_COS - 2);
+        let i = (fc as usize).min(GUESS_TAN - 2);
         let j = (fu as usize).min(GUESS_U - 2);
         let (wc, wu) = (fc - i as f32, fu - j as f32);
         let at = |i: usize, j: usize| self.q[i * GUESS_U + j];
@@ -389,18 +451,88 @@ fn sample_ggx_vndf_unit(v: Vec3, u: Vec2) -> Vec3 {
 
 /// Visible normals of the unit-roughness Beckmann distribution (Heitz & d'Eon 2014): invert the
 /// CDF of the visible slope along the view's azimuth by safeguarded Newton iteration in the erf
-/// domain, and sample the orthogonal slope from the Gaussian.
-fn sample_beckmann_vndf_unit(v: Vec3, u: Vec2) -> Vec3 {
+/// domain, and sample the orthogonal slope from the Gaussian. Also returns the CDF's total
+/// C(s_max) = 2 (1 + Λ) = 2 / G1.
+#[inline]
+fn sample_beckmann_vndf_unit(v: Vec3, u: Vec2) -> (Vec3, f32) {
     let cos_theta = v.z.clamp(1e-6, 1.0);
     let u = Vec2::new(u.x.clamp(1e-6, 1.0 - 1e-6), u.y.clamp(1e-6, 1.0 - 1e-6));
     let cdf = BeckmannSlopeCdf::new(cos_theta);
     // start from the tabulated inverse: one or two Newton steps then reach single precision
-    let guess = beckmann_guess_table().guess(cos_theta, u.x);
-    let slope_x = cdf.invert(u.x, cdf.s_max - (cdf.s_max + 1.0) * (1.0 - guess));
+    let guess = beckmann_guess_table().guess(cdf.tan_theta, u.x);
+    let slope_x = cdf.invert_halley(u.x, cdf.s_max - (cdf.s_max + 1.0) * (1.0 - guess));
     let slope_y = erfinv_fast(2.0 * u.y - 1.0);
     // rotate the slopes from the view's azimuth to the frame
     let (sin_phi, cos_phi) = crate::frame::sincos_phi(v);
     let sx = cos_phi * slope_x - sin_phi * slope_y;
     let sy = sin_phi * slope_x + cos_phi * slope_y;
-    Vec3::new(-sx, -sy, 1.0).normalize()
+    (Vec3::new(-sx, -sy, 1.0).normalize(), cdf.c_max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::erf64;
+
+    /// |C(erf(x)) / C(s_max) − u| in double precision, for the slope `x` found for `u`.
+    fn cdf_error(cos_theta: f32, u: f32, x: f32) -> f64 {
+        let c = cos_theta as f64;
+        let tan = (1.0 - c * c).max(0.0).sqrt() / c;
+        let k = tan / std::f64::consts::PI.sqrt();
+        let cdf = |x: f64| 1.0 + erf64(x) + k * (-x * x).exp();
+        let c_max = if tan > 0.0 { cdf(1.0 / tan) } else { 2.0 };
+        (cdf(x as f64) / c_max - u as f64).abs()
+    }
+
+    #[test]
+    fn one_step_inversion_matches_the_safeguarded_loop() {
+        let table = beckmann_guess_table();
+        let (mut worst_fast, mut worst_loop) = (0f64, 0f64);
+        let mut fallbacks = 0;
+        let n = 400;
+        for i in 0..=n {
+            let cos_theta = (i as f32 / n as f32).clamp(1e-3, 1.0);
+            let cdf = BeckmannSlopeCdf::new(cos_theta);
+            for j in 0..=n {
+                let u = (j as f32 / n as f32).clamp(1e-6, 1.0 - 1e-6);
+                let s = cdf.s_max - (cdf.s_max + 1.0) * (1.0 - table.guess(cdf.tan_theta, u));
+                let fast = cdf.invert_halley(u, s);
+                let slow = cdf.invert(u, s);
+                worst_fast = worst_fast.max(cdf_error(cos_theta, u, fast));
+                worst_loop = worst_loop.max(cdf_error(cos_theta, u, slow));
+                fallbacks += (fast == slow) as usize;
+            }
+        }
+        // the one-step result is as exact as the loop's (both limited by f32 and the erf fit)
+        assert!(
+            worst_fast <= worst_loop.max(2e-6),
+            "{worst_fast} vs {worst_loop}"
+        );
+        eprintln!("worst {worst_fast:e} (loop {worst_loop:e}), equal results {fallbacks}");
+    }
+
+    #[test]
+    fn beckmann_sampling_pdf_uses_smith_g1() {
+        // the pdf `sample` returns (G1(wi) from the sampler's normalisation) is `pdf`'s
+        let mut rng = crate::rng::Pcg32::new(7, 3);
+        for (au, av) in [(0.3, 0.3), (0.05, 0.6), (1.2, 0.01)] {
+            let d = MicrofacetDistribution::new(MicrofacetType::Beckmann, au, av, true);
+            for _ in 0..2000 {
+                let r = rng.next_vec2();
+                let z = r.x.max(1e-3);
+                let phi = 2.0 * PI * r.y;
+                let wi = Vec3::new(
+                    (1.0 - z * z).sqrt() * phi.cos(),
+                    (1.0 - z * z).sqrt() * phi.sin(),
+                    z,
+                );
+                let (m, pdf) = d.sample(wi, rng.next_vec2());
+                let expect = d.pdf(wi, m);
+                assert!(
+                    (pdf - expect).abs() <= 1e-4 * expect + 1e-30,
+                    "{pdf} vs {expect}"
+                );
+            }
+        }
+    }
 }

@@ -4,7 +4,7 @@
 //! [`Props`]; [`crate::build::build_bsdf`] consumes it. Every parameter remembers where it came
 //! from (e.g. `scene.xml:12:5`), and a parameter that no model reads is an error.
 
-use crate::bsdf::{FloatParam, SpectrumParam, Texture};
+use crate::bsdf::{FloatParam, SpectralCurve, SpectrumParam, Texture};
 use crate::models::Bsdf;
 use crate::spectrum::Spectrum;
 use std::cell::Cell;
@@ -20,6 +20,13 @@ pub enum Value {
     Str(String),
     Rgb(Spectrum),
     Texture(Arc<dyn Texture>),
+    /// A spectrum known at every wavelength (a scene file's `<spectrum>` list, `.spd` file,
+    /// blackbody, …): `rgb` in RGB mode, `curve` in spectral mode (a colour parameter reads
+    /// it as [`SpectrumParam::Spectral`]).
+    Spectral {
+        rgb: Spectrum,
+        curve: Arc<dyn SpectralCurve>,
+    },
 }
 
 impl Value {
@@ -31,6 +38,7 @@ impl Value {
             Value::Str(_) => "string",
             Value::Rgb(_) => "rgb",
             Value::Texture(_) => "texture",
+            Value::Spectral { .. } => "spectrum",
         }
     }
 }
@@ -215,7 +223,8 @@ impl Props {
         }
     }
 
-    /// A colour: a float (grey), an rgb triple or a texture.
+    /// A colour: a float (grey), an rgb triple, a texture or a spectrum
+    /// ([`Value::Spectral`]).
     pub fn spectrum(&self, name: &str, default: f32) -> Result<SpectrumParam, BuildError> {
         match self.get(name) {
             None => Ok(SpectrumParam::Const(Spectrum::splat(default))),
@@ -238,6 +247,17 @@ impl Props {
                     }
                 }
                 Value::Texture(t) => Ok(SpectrumParam::Texture(t.clone())),
+                Value::Spectral { rgb, curve } if rgb.is_finite() => Ok(SpectrumParam::Spectral {
+                    rgb: *rgb,
+                    curve: curve.clone(),
+                }),
+                Value::Spectral { .. } => Err(self.err(
+                    p,
+                    format!(
+                        "parameter '{name}' of '{}' has a non-finite channel",
+                        self.plugin
+                    ),
+                )),
                 _ => Err(self.type_err(p, "a float, an rgb colour or a texture")),
             },
         }

@@ -29,6 +29,12 @@
 //!   `to_world` · (0, 0, 1) (not normalised, as Mitsuba) and the direction d from the light to
 //!   the point: irradiance E·scale·π on a plane facing the projector at unit depth.
 //!
+//! A `<spectrum>` value of `point`, `directional`, `constant`, `spot` or `projector` (without
+//! an image) is kept beside its RGB value (`spectrum` fields, [`light_spectrum`]): RGB mode
+//! uses the RGB value (the spectrum converted as Mitsuba's RGB variants do), spectral mode
+//! emits the spectrum itself (`crate::spectral`); a spot's texture then multiplies it as an
+//! upsampled reflectance, as in Mitsuba.
+//!
 //! Importance sampling of `envmap` differs from Mitsuba's (a bilinear `Hierarchical2D` warp over
 //! the padded pixel grid) but is unbiased and consistent with [`Emitter::pdf_direction`]: the
 //! cells between four neighbouring pixels of the bilinear lookup are chosen with probability
@@ -39,6 +45,7 @@ use crate::core::{Loc, Result, SceneError};
 use crate::image_io::{srgb_to_linear, Image};
 use crate::xml::Node;
 use glam::{Mat3, Mat4, Vec2, Vec3};
+use specula_bsdf::bsdf::SpectralCurve;
 use specula_bsdf::warp::{square_to_uniform_sphere, UNIFORM_SPHERE_PDF};
 use specula_bsdf::{Rgb, ShadingPoint, Texture};
 use std::f32::consts::PI;
@@ -60,26 +67,36 @@ pub struct DirectionSample {
     pub is_delta: bool,
 }
 
+/// An emitter's value given as a `<spectrum>` (see [`light_spectrum`]): what spectral mode
+/// emits instead of the RGB value upsampled.
+pub type EmissionSpectrum = Arc<dyn SpectralCurve>;
+
 /// Mitsuba's `point`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct PointLight {
     pub position: Vec3,
     /// Radiant intensity (W/sr).
     pub intensity: Rgb,
+    /// `intensity` as a `<spectrum>`, for spectral mode.
+    pub spectrum: Option<EmissionSpectrum>,
 }
 
 /// Mitsuba's `directional`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct DirectionalLight {
     /// Unit direction in which the light travels.
     pub direction: Vec3,
     pub irradiance: Rgb,
+    /// `irradiance` as a `<spectrum>`, for spectral mode.
+    pub spectrum: Option<EmissionSpectrum>,
 }
 
 /// Mitsuba's `constant`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct ConstantLight {
     pub radiance: Rgb,
+    /// `radiance` as a `<spectrum>`, for spectral mode.
+    pub spectrum: Option<EmissionSpectrum>,
 }
 
 /// Mitsuba's `envmap`: a lat-long environment image with luminance-based importance
@@ -136,6 +153,7 @@ impl Emitter {
         Emitter::Point(PointLight {
             position,
             intensity,
+            spectrum: None,
         })
     }
 
@@ -149,6 +167,7 @@ impl Emitter {
         Emitter::Directional(DirectionalLight {
             direction: direction.normalize(),
             irradiance,
+            spectrum: None,
         })
     }
 
@@ -158,7 +177,40 @@ impl Emitter {
     }
 
     pub fn constant(radiance: Rgb) -> Self {
-        Emitter::Constant(ConstantLight { radiance })
+        Emitter::Constant(ConstantLight {
+            radiance,
+            spectrum: None,
+        })
+    }
+
+    /// The `<spectrum>` the emitter's value was given as, with that value's RGB (`point`,
+    /// `directional`, `spot`: intensity or irradiance; `constant`: radiance; `projector`:
+    /// irradiance without an image); `None` for RGB values and for `envmap`.
+    pub fn spectrum(&self) -> Option<(&EmissionSpectrum, Rgb)> {
+        match self {
+            Emitter::Point(l) => l.spectrum.as_ref().map(|s| (s, l.intensity)),
+            Emitter::Directional(l) => l.spectrum.as_ref().map(|s| (s, l.irradiance)),
+            Emitter::Constant(l) => l.spectrum.as_ref().map(|s| (s, l.radiance)),
+            Emitter::Spot(l) => l.spectrum.as_ref().map(|s| (s, l.intensity)),
+            Emitter::Projector(l) => l.spectrum.as_ref().map(|s| (s, l.irradiance)),
+            Emitter::Envmap(_) => None,
+        }
+    }
+
+    /// Reads the `<spectrum>` of the emitter's value parameter `name` ([`light_spectrum`]) into
+    /// the emitter built from node `n`.
+    fn with_spectrum(mut self, n: &Node, name: &str) -> Result<Self> {
+        let s = light_spectrum(n, name)?;
+        match &mut self {
+            Emitter::Point(l) => l.spectrum = s,
+            Emitter::Directional(l) => l.spectrum = s,
+            Emitter::Constant(l) => l.spectrum = s,
+            Emitter::Spot(l) => l.spectrum = s,
+            // an image replaces the irradiance value
+            Emitter::Projector(l) if l.texture.is_none() => l.spectrum = s,
+            Emitter::Projector(_) | Emitter::Envmap(_) => {}
+        }
+        Ok(self)
     }
 
     /// An `envmap` from an EXR/HDR (or PNG/JPEG, linearised) lat-long image.
@@ -201,7 +253,8 @@ impl Emitter {
                     (Some(p), None) => Emitter::point(p, intensity),
                     (None, Some(m)) => Emitter::point_from_to_world(&m, intensity),
                     (None, None) => Emitter::point(Vec3::ZERO, intensity),
-                };
+                }
+                .with_spectrum(n, "intensity")?;
                 if let Emitter::Point(l) = &e {
                     if !l.position.is_finite() {
                         return Err(n.error(format!(
@@ -230,12 +283,12 @@ impl Emitter {
                 if !(d.length_squared() > 0.0 && d.is_finite()) {
                     return Err(n.error("directional: the direction must be a non-zero vector"));
                 }
-                Emitter::directional(d, irradiance)
+                Emitter::directional(d, irradiance).with_spectrum(n, "irradiance")?
             }
             "constant" => {
                 let radiance = rgb("radiance")?;
                 n.check_unused(&["radiance"])?;
-                Emitter::constant(radiance)
+                Emitter::constant(radiance).with_spectrum(n, "radiance")?
             }
             "envmap" => {
                 let file = n
@@ -750,6 +803,8 @@ pub struct SpotLight {
     /// World → local (the inverse of `to_world`).
     to_local: Mat4,
     pub intensity: Rgb,
+    /// `intensity` as a `<spectrum>`, for spectral mode.
+    pub spectrum: Option<EmissionSpectrum>,
     texture: Option<Arc<dyn Texture>>,
     /// Radians.
     cutoff: f32,
@@ -788,6 +843,7 @@ impl SpotLight {
             position: to_world.transform_point3(Vec3::ZERO),
             to_local,
             intensity,
+            spectrum: None,
             texture,
             cutoff,
             cos_cutoff: cutoff.cos(),
@@ -806,19 +862,36 @@ impl SpotLight {
             return Rgb::ZERO;
         }
         let mut v = self.intensity;
-        if let Some(t) = &self.texture {
-            let k = 0.5 / (d.z * self.uv_factor);
-            let uv = Vec2::new(0.5 + d.x * k, 0.5 + d.y * k);
-            v *= t.eval(&ShadingPoint {
-                uv,
-                ..Default::default()
-            });
+        if let Some(t) = self.texture_at(d) {
+            v *= t;
         }
         if cos_t >= self.cos_beam {
             v
         } else {
             v * ((self.cutoff - cos_t.min(1.0).acos()) * self.inv_transition)
         }
+    }
+
+    /// The texture's value towards the unit local direction `d` (z > 0); `None` without a
+    /// texture.
+    fn texture_at(&self, d: Vec3) -> Option<Rgb> {
+        let t = self.texture.as_ref()?;
+        let k = 0.5 / (d.z * self.uv_factor);
+        let uv = Vec2::new(0.5 + d.x * k, 0.5 + d.y * k);
+        Some(t.eval(&ShadingPoint {
+            uv,
+            ..Default::default()
+        }))
+    }
+
+    /// The texture's value on a ray from the light along world direction `d`; `None` without
+    /// a texture or outside the cone.
+    pub fn texture_towards(&self, d: Vec3) -> Option<Rgb> {
+        let d = self.to_local.transform_vector3(d).normalize_or_zero();
+        if d.z.is_nan() || d.z <= self.cos_cutoff {
+            return None;
+        }
+        self.texture_at(d)
     }
 
     fn sample(&self, ref_p: Vec3) -> Option<DirectionSample> {
@@ -850,6 +923,8 @@ pub struct ProjectorLight {
     /// `to_world` · (0, 0, 1), not normalised.
     n_world: Vec3,
     irradiance: Rgb,
+    /// `irradiance` as a `<spectrum>` (no image), for spectral mode.
+    pub spectrum: Option<EmissionSpectrum>,
     texture: Option<Arc<dyn Texture>>,
     pub scale: f32,
     /// tan(fov_x / 2).
@@ -881,6 +956,7 @@ impl ProjectorLight {
             to_local,
             n_world: to_world.transform_vector3(Vec3::Z),
             irradiance,
+            spectrum: None,
             texture,
             scale,
             tan_half_x,
@@ -953,7 +1029,8 @@ impl Emitter {
         n.check_unused(&["intensity", "cutoff_angle", "beam_width", "to_world"])?;
         SpotLight::new(&to_world, intensity, cutoff, beam, texture)
             .map(|l| Emitter::Spot(Box::new(l)))
-            .map_err(|m| n.error(format!("spot: {m}")))
+            .map_err(|m| n.error(format!("spot: {m}")))?
+            .with_spectrum(n, "intensity")
     }
 
     /// Mitsuba's `projector` from its node and textures.
@@ -984,7 +1061,8 @@ impl Emitter {
             aspect as f32,
         )
         .map(|l| Emitter::Projector(Box::new(l)))
-        .map_err(|m| n.error(format!("projector: {m}")))
+        .map_err(|m| n.error(format!("projector: {m}")))?
+        .with_spectrum(n, "irradiance")
     }
 }
 
@@ -1004,6 +1082,29 @@ pub fn light_rgb(n: &Node, name: &str) -> Result<Rgb> {
             n.plugin_type, v[0], v[1], v[2]
         ),
     ))
+}
+
+/// The `<spectrum>` an emitter's value parameter `name` was given as, kept for spectral
+/// mode (Mitsuba's spectral variants emit it as it is; see [`crate::xml::spectrum`]);
+/// `None` for `<rgb>`, `<float>` and absent values. A tabulated spectrum with a negative
+/// value is an error at the property, as a negative RGB light is.
+pub fn light_spectrum(n: &Node, name: &str) -> Result<Option<EmissionSpectrum>> {
+    let Some(p) = n.prop(name) else {
+        return Ok(None);
+    };
+    let crate::xml::PropValue::Spectrum(s) = &p.value else {
+        return Ok(None);
+    };
+    if let Some(m) = s.min_sample().filter(|m| *m < 0.0) {
+        return Err(SceneError::new(
+            Some(p.loc.clone()),
+            format!(
+                "{}: the '{name}' spectrum must be non-negative at every wavelength, not {m}",
+                n.plugin_type
+            ),
+        ));
+    }
+    Ok(Some(s.curve()))
 }
 
 #[cfg(test)]
@@ -1478,6 +1579,57 @@ mod tests {
         Emitter::from_node(&root.children[0], &specula_testdata::root().join("scenes"))
     }
 
+    /// A `<spectrum>` value is kept for spectral mode beside its RGB value (RGB mode reads
+    /// only the latter); `<rgb>` values and `envmap` have none; a negative emission spectrum
+    /// is an error at the property.
+    #[test]
+    fn spectrum_values_are_kept_for_spectral_mode() {
+        let w = specula_bsdf::Wavelengths([450.0, 500.0, 700.0]);
+        for (xml, want) in [
+            (
+                r#"<emitter type="point"><spectrum name="intensity" value="400:0.2, 500:1.5, 600:0.3"/></emitter>"#,
+                [0.85, 1.5, 0.0],
+            ),
+            (
+                r#"<emitter type="directional"><spectrum name="irradiance" value="0.5"/></emitter>"#,
+                [0.5; 3],
+            ),
+            (
+                r#"<emitter type="constant"><spectrum name="radiance" type="uniform"><float name="value" value="2"/></spectrum></emitter>"#,
+                [2.0; 3],
+            ),
+            (
+                r#"<emitter type="spot"><spectrum name="intensity" value="400:1, 800:1"/></emitter>"#,
+                [1.0; 3],
+            ),
+            (
+                r#"<emitter type="projector"><spectrum name="irradiance" value="400:3, 800:3"/></emitter>"#,
+                [3.0; 3],
+            ),
+        ] {
+            let e = node(xml).unwrap();
+            let (curve, rgb) = e.spectrum().unwrap_or_else(|| panic!("{xml}"));
+            let v = curve.eval_at(&w);
+            for (x, y) in v.0.iter().zip(want) {
+                assert!((x - y).abs() < 1e-6, "{xml}: {v:?}");
+            }
+            // the RGB value RGB mode uses is the converted spectrum's
+            assert!(rgb.max_component() > 0.0, "{xml}");
+        }
+        let e = node(r#"<emitter type="point"><rgb name="intensity" value="1, 2, 3"/></emitter>"#);
+        assert!(e.unwrap().spectrum().is_none());
+        let e = node(
+            r#"<emitter type="point">
+                <spectrum name="intensity" value="400:1, 500:-0.5, 600:1"/></emitter>"#,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("test.xml:3:17") && e.contains("non-negative"),
+            "{e}"
+        );
+    }
+
     #[test]
     fn builds_from_xml_nodes() {
         let e = node(r#"<emitter type="point"><point name="position" value="1, 2, 3"/><rgb name="intensity" value="10, 20, 30"/></emitter>"#).unwrap();
@@ -1492,7 +1644,7 @@ mod tests {
         let e = node(r#"<emitter type="directional"><vector name="direction" value="0, 0, -2"/><spectrum name="irradiance" value="3"/></emitter>"#).unwrap();
         let want = Rgb::new(3.6143818, 2.844873, 2.7267482);
         assert!(
-            matches!(e, Emitter::Directional(l) if l.direction == -Vec3::Z && (0..3).all(|k| (l.irradiance.0[k] / want.0[k] - 1.0).abs() < 1e-6)),
+            matches!(&e, Emitter::Directional(l) if l.direction == -Vec3::Z && (0..3).all(|k| (l.irradiance.0[k] / want.0[k] - 1.0).abs() < 1e-6)),
             "{e:?}"
         );
         let e = node(

@@ -22,7 +22,7 @@
 //! - a developed pixel whose sums overflowed `f32` (radiance near 3.4e38) is not written as
 //!   ±∞: [`Film::develop`] reports how many there were (see `render::RenderOutput`).
 
-use glam::Vec2;
+use glam::{Vec2, Vec4};
 use specula_bsdf::Rgb;
 
 /// Remez fit to exp(−y/2) on y ∈ [0, 16] (y = x²/σ²): Mitsuba 3's Gaussian filter kernel on
@@ -158,6 +158,52 @@ impl RFilter {
             RFilter::Gaussian { coeff, .. } => poly(x * x, coeff).max(0.0),
         }
     }
+
+    /// `eval((first + i) − p)` for i = 0..8, computed lane by lane as [`RFilter::eval`]
+    /// computes it (bit-identical weights), in a form the compiler vectorises.
+    #[inline(always)]
+    fn eval8(&self, first: f32, p: f32) -> [f32; 8] {
+        let mut x = [0f32; 8];
+        for (i, v) in x.iter_mut().enumerate() {
+            // first + i is an exact integer, as (x0 + i) as f32 is
+            *v = (first + i as f32) - p;
+        }
+        match self {
+            RFilter::Gaussian { coeff, .. } => {
+                let x2 = x.map(|x| x * x);
+                // poly's Horner scheme: acc = 0 · x² + c₉, then acc · x² + cₖ
+                let mut acc = [0f32; 8];
+                for &c in coeff.iter().rev() {
+                    for (a, &y) in acc.iter_mut().zip(&x2) {
+                        *a = *a * y + c;
+                    }
+                }
+                acc.map(|a| a.max(0.0))
+            }
+            _ => x.map(|x| self.eval(x)),
+        }
+    }
+}
+
+/// ⌊x⌋ of a finite `x` (|x| < 2⁶³) without a library call (x86-64's baseline has no
+/// rounding instruction): truncation, one lower where it rounded up.
+#[inline(always)]
+fn floor_i64(x: f32) -> i64 {
+    let i = x as i64;
+    i - ((i as f32) > x) as i64
+}
+
+/// ⌈x⌉ of a finite `x` (|x| < 2⁶³), as [`floor_i64`].
+#[inline(always)]
+fn ceil_i64(x: f32) -> i64 {
+    let i = x as i64;
+    i + ((i as f32) < x) as i64
+}
+
+/// (r, g, b, 1): a sample's value and its unit weight, scaled together by the filter weight.
+#[inline(always)]
+fn rgb1(v: Rgb) -> Vec4 {
+    Vec4::new(v.0[0], v.0[1], v.0[2], 1.0)
 }
 
 /// Most filter taps per axis kept on the stack (radius up to 31.5 pixels); wider filters
@@ -175,10 +221,9 @@ pub struct ImageBlock {
     /// Extra pixels stored on every side.
     pub border: usize,
     pub filter: RFilter,
-    /// Σ w·rgb per stored pixel ((size + 2·border) pixels, row-major, 3 values each).
-    pub sum: Vec<f32>,
-    /// Σ w per stored pixel.
-    pub weight: Vec<f32>,
+    /// (Σ w·r, Σ w·g, Σ w·b, Σ w) per stored pixel ((size + 2·border) pixels, row-major): one
+    /// vector operation per pixel a sample touches.
+    pub data: Vec<Vec4>,
 }
 
 impl ImageBlock {
@@ -190,8 +235,7 @@ impl ImageBlock {
             size,
             border,
             filter,
-            sum: vec![0.0; 3 * n],
-            weight: vec![0.0; n],
+            data: vec![Vec4::ZERO; n],
         }
     }
 
@@ -203,17 +247,17 @@ impl ImageBlock {
 
     /// Zeroes the accumulated values.
     pub fn clear(&mut self) {
-        self.sum.fill(0.0);
-        self.weight.fill(0.0);
+        self.data.fill(Vec4::ZERO);
+    }
+
+    /// Σ w per stored pixel (row-major).
+    pub fn weights(&self) -> Vec<f32> {
+        self.data.iter().map(|d| d.w).collect()
     }
 
     #[inline]
     fn add(&mut self, index: usize, value: Rgb, w: f32) {
-        let s = &mut self.sum[3 * index..3 * index + 3];
-        s[0] += value.0[0] * w;
-        s[1] += value.0[1] * w;
-        s[2] += value.0[2] * w;
-        self.weight[index] += w;
+        self.data[index] += rgb1(value) * w;
     }
 
     /// Splats a sample taken at continuous film position `film_pos` (pixel (i, j) spans
@@ -224,8 +268,8 @@ impl ImageBlock {
         }
         let (ew, eh) = self.stored_size();
         if let RFilter::Box = self.filter {
-            let x = film_pos.x.floor() as i64 - self.offset.0 as i64;
-            let y = film_pos.y.floor() as i64 - self.offset.1 as i64;
+            let x = floor_i64(film_pos.x) - self.offset.0 as i64;
+            let y = floor_i64(film_pos.y) - self.offset.1 as i64;
             if x >= 0 && y >= 0 && (x as usize) < self.size.0 && (y as usize) < self.size.1 {
                 self.add(y as usize * ew + x as usize, value, 1.0);
             }
@@ -236,10 +280,10 @@ impl ImageBlock {
         let b = self.border as f32;
         let px = film_pos.x + (b - self.offset.0 as f32 - 0.5);
         let py = film_pos.y + (b - self.offset.1 as f32 - 0.5);
-        let x0 = ((px - r).ceil() as i64).max(0);
-        let y0 = ((py - r).ceil() as i64).max(0);
-        let x1 = ((px + r).floor() as i64).min(ew as i64 - 1);
-        let y1 = ((py + r).floor() as i64).min(eh as i64 - 1);
+        let x0 = ceil_i64(px - r).max(0);
+        let y0 = ceil_i64(py - r).max(0);
+        let x1 = floor_i64(px + r).min(ew as i64 - 1);
+        let y1 = floor_i64(py + r).min(eh as i64 - 1);
         if x0 > x1 || y0 > y1 {
             return;
         }
@@ -247,12 +291,36 @@ impl ImageBlock {
         let ny = (y1 - y0 + 1) as usize;
         let taps = (px, py, x0 as usize, y0 as usize, nx, ny);
         if nx <= 8 && ny <= 8 {
-            // the common case (Gaussians up to σ = 0.875): small arrays to clear
-            self.put_taps::<8>(taps, value);
+            // the common case (Gaussians up to σ = 0.875): 8 weights per axis at once
+            self.put_taps8(taps, value);
         } else if nx <= MAX_TAPS && ny <= MAX_TAPS {
             self.put_taps::<MAX_TAPS>(taps, value);
         } else {
             self.put_wide(px, py, (x0, y0, x1, y1), value);
+        }
+    }
+
+    /// [`Self::put_taps`] for up to 8 × 8 pixels: the 8 weights of each axis are evaluated
+    /// together (the same operations as [`RFilter::eval`], so the same weights bit for bit,
+    /// in vector registers), then each pixel takes one vector multiply-add.
+    #[inline(always)]
+    fn put_taps8(
+        &mut self,
+        (px, py, x0, y0, nx, ny): (f32, f32, usize, usize, usize, usize),
+        value: Rgb,
+    ) {
+        let ew = self.stored_size().0;
+        let wx = self.filter.eval8(x0 as f32, px);
+        let wy = self.filter.eval8(y0 as f32, py);
+        let v = rgb1(value);
+        for (k, &wy) in wy[..ny].iter().enumerate() {
+            if wy == 0.0 {
+                continue;
+            }
+            let row = (y0 + k) * ew + x0;
+            for (d, &w) in self.data[row..row + nx].iter_mut().zip(&wx[..nx]) {
+                *d += v * (w * wy);
+            }
         }
     }
 
@@ -275,19 +343,14 @@ impl ImageBlock {
         for (i, w) in wy[..ny].iter_mut().enumerate() {
             *w = self.filter.eval((y0 + i) as f32 - py);
         }
+        let v = rgb1(value);
         for (k, &wy) in wy[..ny].iter().enumerate() {
             if wy == 0.0 {
                 continue;
             }
             let row = (y0 + k) * ew + x0;
-            let sums = &mut self.sum[3 * row..3 * (row + nx)];
-            let weights = &mut self.weight[row..row + nx];
-            for ((s, wt), &w) in sums.chunks_exact_mut(3).zip(weights).zip(&wx[..nx]) {
-                let w = w * wy;
-                s[0] += value.0[0] * w;
-                s[1] += value.0[1] * w;
-                s[2] += value.0[2] * w;
-                *wt += w;
+            for (d, &w) in self.data[row..row + nx].iter_mut().zip(&wx[..nx]) {
+                *d += v * (w * wy);
             }
         }
     }
@@ -356,12 +419,12 @@ impl Film {
                 if fx < 0 || fx >= self.width as i64 {
                     continue;
                 }
-                let bi = by * ew + bx;
+                let d = block.data[by * ew + bx];
                 let fi = fy as usize * self.width + fx as usize;
-                for c in 0..3 {
-                    self.sum[3 * fi + c] += block.sum[3 * bi + c];
+                for (c, v) in [d.x, d.y, d.z].into_iter().enumerate() {
+                    self.sum[3 * fi + c] += v;
                 }
-                self.weight[fi] += block.weight[bi];
+                self.weight[fi] += d.w;
             }
         }
     }
@@ -466,6 +529,49 @@ mod tests {
     }
 
     #[test]
+    fn floor_and_ceil_without_libm() {
+        let mut rng = Pcg32::new(1, 4);
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            2.5,
+            -2.5,
+            1e-30,
+            -1e-30,
+            0.999_999_9,
+            -0.999_999_9,
+        ];
+        xs.extend((0..10_000).map(|_| (rng.next_f32() - 0.5) * 3e5));
+        xs.extend((0..10_000).map(|_| (rng.next_f32() - 0.5) * 8.0));
+        for x in xs {
+            assert_eq!(floor_i64(x), x.floor() as i64, "{x}");
+            assert_eq!(ceil_i64(x), x.ceil() as i64, "{x}");
+        }
+    }
+
+    #[test]
+    fn eight_weights_at_once_equal_eval() {
+        let mut rng = Pcg32::new(5, 9);
+        for f in [
+            RFilter::default_gaussian(),
+            RFilter::gaussian(0.3),
+            RFilter::gaussian(0.875),
+            RFilter::Tent,
+        ] {
+            for _ in 0..1000 {
+                let first = (rng.next_f32() * 300.0).floor();
+                let p = first + rng.next_f32() * 4.0;
+                let w = f.eval8(first, p);
+                for (i, &w) in w.iter().enumerate() {
+                    assert_eq!(w.to_bits(), f.eval((first + i as f32) - p).to_bits());
+                }
+            }
+        }
+    }
+
+    #[test]
     fn box_filter_gives_each_sample_to_its_pixel() {
         let mut film = Film::new(7, 5, RFilter::Box);
         let mut rng = Pcg32::new(3, 1);
@@ -479,8 +585,8 @@ mod tests {
             block.put(p, v);
             let i = p.y as usize * 7 + p.x as usize;
             // Exactly one pixel receives the sample, with weight 1.
-            assert_eq!(block.weight.iter().filter(|&&w| w != 0.0).count(), 1);
-            assert_eq!(block.weight[i], 1.0);
+            assert_eq!(block.weights().iter().filter(|&&w| w != 0.0).count(), 1);
+            assert_eq!(block.weights()[i], 1.0);
             film.merge(&block);
             for c in 0..3 {
                 want[3 * i + c] += v[c];
@@ -498,12 +604,12 @@ mod tests {
         let mut b = film.new_block(0, 0, 7, 5);
         b.put(Vec2::new(3.0, 0.5), Rgb::ONE);
         b.put(Vec2::new(2.9999998, 0.5), Rgb::ONE);
-        assert_eq!((b.weight[3], b.weight[2]), (1.0, 1.0));
+        assert_eq!((b.weights()[3], b.weights()[2]), (1.0, 1.0));
         // Outside the block: dropped.
         b.put(Vec2::new(7.0, 0.5), Rgb::ONE);
         b.put(Vec2::new(-0.1, 0.5), Rgb::ONE);
         b.put(Vec2::new(f32::NAN, 0.5), Rgb::ONE);
-        assert_eq!(b.weight.iter().sum::<f32>(), 2.0);
+        assert_eq!(b.weights().iter().sum::<f32>(), 2.0);
     }
 
     #[test]
@@ -515,7 +621,7 @@ mod tests {
         let p = Vec2::new(7.3, 9.8);
         b.put(p, Rgb::ONE);
         let (ew, _) = b.stored_size();
-        for (k, &w) in b.weight.iter().enumerate() {
+        for (k, &w) in b.weights().iter().enumerate() {
             let (sx, sy) = (k % ew, k / ew);
             // Film pixel of stored pixel (sx, sy).
             let (fx, fy) = (sx as f32 + 4.0 - 2.0, sy as f32 + 4.0 - 2.0);
@@ -531,7 +637,7 @@ mod tests {
         b.put(p, Rgb::ONE);
         let (ew, _) = b.stored_size();
         let bo = b.border as f32;
-        for (k, &w) in b.weight.iter().enumerate() {
+        for (k, &w) in b.weights().iter().enumerate() {
             let (fx, fy) = ((k % ew) as f32 - bo, (k / ew) as f32 - bo);
             let want = f.eval(fx + 0.5 - p.x) * f.eval(fy + 0.5 - p.y);
             assert!((w - want).abs() < 1e-6);
@@ -542,10 +648,10 @@ mod tests {
         let mut b = film.new_block(0, 0, 4, 1);
         b.put(Vec2::new(1.5, 0.5), Rgb::ONE);
         let ew = b.stored_size().0;
-        assert_eq!(b.weight[ew..2 * ew], [0.0, 0.0, 1.0, 0.0, 0.0, 0.0]);
+        assert_eq!(b.weights()[ew..2 * ew], [0.0, 0.0, 1.0, 0.0, 0.0, 0.0]);
         b.clear();
         b.put(Vec2::new(2.0, 0.5), Rgb::ONE);
-        assert_eq!(b.weight[ew..2 * ew], [0.0, 0.0, 0.5, 0.5, 0.0, 0.0]);
+        assert_eq!(b.weights()[ew..2 * ew], [0.0, 0.0, 0.5, 0.5, 0.0, 0.0]);
     }
 
     #[test]
@@ -575,7 +681,7 @@ mod tests {
                 Vec2::new(14.0 + rng.next_f32(), 14.0 + rng.next_f32()),
                 Rgb::ONE,
             );
-            totals.push(b.weight.iter().sum::<f32>());
+            totals.push(b.weights().iter().sum::<f32>());
         }
         let (lo, hi) = totals
             .iter()

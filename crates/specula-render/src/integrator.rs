@@ -39,7 +39,7 @@ use crate::geometry::Geometry;
 use crate::sampler::Sampler;
 pub use crate::scene::PathSettings;
 use crate::scene::{Light, Scene};
-use crate::spectral::{emission, infinite_emission};
+use crate::spectral::infinite_emission;
 use crate::xml::Node;
 use glam::{Vec2, Vec3};
 use specula_bsdf::spectral::dispersion::collapse_dead_channels;
@@ -279,7 +279,9 @@ impl Scene {
                 counters.rays += 1;
                 Rgb::splat(hit.map_or(0.0, |h| h.t))
             }
-            Integrator::Aov(a) => self.li_aov(a, ray, differentials, hit, rng, counters, aovs),
+            Integrator::Aov(a) => {
+                self.li_aov(a, ray, differentials, hit, rng, counters, aovs, None)
+            }
         }
     }
 
@@ -358,7 +360,7 @@ impl Scene {
                                 self.area_light_pdf(hit.shape, prev_p, si.p, si.n_geo),
                             )
                         };
-                        result += throughput * emission(radiance.eval(si.uv, si.p), wl) * w;
+                        result += throughput * radiance.emission(si.uv, si.p, wl) * w;
                     }
                 }
             }
@@ -781,9 +783,7 @@ impl Scene {
     ) -> Option<Rgb> {
         let li = self.shape_light[shape]?;
         match &self.lights[li as usize] {
-            Light::Area { radiance, .. } if wi.z > 0.0 => {
-                Some(emission(radiance.eval(si.uv, si.p), wl))
-            }
+            Light::Area { radiance, .. } if wi.z > 0.0 => Some(radiance.emission(si.uv, si.p, wl)),
             _ => None,
         }
     }
@@ -910,7 +910,7 @@ impl Scene {
 
     /// Mitsuba's `aov` integrator.
     #[allow(clippy::too_many_arguments)]
-    fn li_aov<S: Sampler>(
+    pub(crate) fn li_aov<S: Sampler>(
         &self,
         a: &AovSettings,
         ray: Ray,
@@ -919,11 +919,18 @@ impl Scene {
         rng: &mut S,
         counters: &mut Counters,
         out: &mut [f32],
+        spectral: Option<(&Wavelengths, &[f32; 3])>,
     ) -> Rgb {
         let mut k = 0;
         let mut image = Rgb::ZERO;
         for (i, (_, inner)) in a.integrators.iter().enumerate() {
-            let l = self.sample(inner, ray, hit, rng, counters, &mut []);
+            // in spectral mode, at the sample's wavelengths and developed
+            let l = match spectral {
+                None => self.sample(inner, ray, hit, rng, counters, &mut []),
+                Some(w) => {
+                    self.sample_at_wavelengths(inner, ray, None, hit, rng, counters, w, &mut [])
+                }
+            };
             let hide = match inner {
                 Integrator::Path(p) => p.hide_emitters,
                 Integrator::Direct(d) => d.hide_emitters,
@@ -956,8 +963,14 @@ impl Scene {
                 (Some((h, s)), AovType::Albedo) => {
                     let shape = h.shape as usize;
                     let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-                    let sp = s.shading_point(h, self.geometry[shape].surface_data());
-                    bsdf.diffuse_reflectance(&sp, s.sh_frame.to_local(-ray.d)).0
+                    let mut sp = s.shading_point(h, self.geometry[shape].surface_data());
+                    // spectral mode: the reflectance at the wavelengths, developed (Mitsuba)
+                    sp.wavelengths = spectral.map(|(w, _)| *w);
+                    let r = bsdf.diffuse_reflectance(&sp, s.sh_frame.to_local(-ray.d));
+                    match spectral {
+                        None => r.0,
+                        Some((w, weight)) => specula_bsdf::spectral::cie::develop(r, w, weight).0,
+                    }
                 }
                 (Some((_, s)), AovType::DpDu) => s.dp_du.to_array(),
                 (Some((_, s)), AovType::DpDv) => s.dp_dv.to_array(),

@@ -128,10 +128,12 @@ fn render_tile<S: PixelSampler>(
                         Some(u) => scene.sample_spectral(
                             integrator,
                             rays[i],
+                            differentials.then_some(&diffs[i]),
                             hits[i].take(),
                             sampler,
                             &mut c,
                             u,
+                            &mut aov,
                         ),
                         None => scene.sample_differential(
                             integrator,

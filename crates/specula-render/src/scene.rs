@@ -50,6 +50,12 @@ pub enum Light {
 pub enum AreaRadiance {
     Rgb(Rgb),
     Texture(Arc<dyn Texture>),
+    /// A `<spectrum>`: `rgb` in RGB mode, `curve` in spectral mode
+    /// ([`AreaRadiance::emission`]).
+    Spectral {
+        rgb: Rgb,
+        curve: Arc<dyn specula_bsdf::bsdf::SpectralCurve>,
+    },
 }
 
 impl From<Rgb> for AreaRadiance {
@@ -63,7 +69,7 @@ impl AreaRadiance {
     #[inline]
     pub fn eval(&self, uv: glam::Vec2, p: Vec3) -> Rgb {
         match self {
-            AreaRadiance::Rgb(c) => *c,
+            AreaRadiance::Rgb(c) | AreaRadiance::Spectral { rgb: c, .. } => *c,
             AreaRadiance::Texture(t) => t.eval(&specula_bsdf::ShadingPoint {
                 uv,
                 p,
@@ -78,7 +84,7 @@ impl AreaRadiance {
     #[inline]
     pub fn eval_along(&self, g: &Geometry, o: Vec3, d: Vec3, t: f32) -> Rgb {
         match self {
-            AreaRadiance::Rgb(c) => *c,
+            AreaRadiance::Rgb(c) | AreaRadiance::Spectral { rgb: c, .. } => *c,
             AreaRadiance::Texture(_) => {
                 let ray = Ray {
                     o,
@@ -748,7 +754,14 @@ impl Builder {
                 let c0 = n.rgb("color0", [0.4; 3])?;
                 let c1 = n.rgb("color1", [0.2; 3])?;
                 n.check_unused(&["color0", "color1", "to_uv"])?;
-                Arc::new(Checkerboard::new(Rgb(c0), Rgb(c1), to_uv))
+                let mut t = Checkerboard::new(Rgb(c0), Rgb(c1), to_uv);
+                // `<spectrum>` colours, for spectral mode (a constant is grey either way)
+                for (k, name) in ["color0", "color1"].into_iter().enumerate() {
+                    if let Some(PropValue::Spectrum(s)) = n.prop(name).map(|p| &p.value) {
+                        t.spectra[k] = s.as_constant().is_none().then(|| s.curve());
+                    }
+                }
+                Arc::new(t)
             }
             "bitmap" => {
                 let file = n.string_opt("filename")?.ok_or_else(|| {
@@ -812,8 +825,9 @@ impl Builder {
                 }
                 PropValue::Str(v) => Value::Str(v.clone()),
                 PropValue::Rgb(v) => Value::Rgb(Rgb(*v)),
-                // a constant stays a number; anything else becomes RGB the way Mitsuba's
-                // plugins read it: IORs and roughness unbounded, the rest as reflectances
+                // a constant stays a number; anything else keeps its RGB value the way
+                // Mitsuba's plugins read it (IORs and roughness unbounded, the rest as
+                // reflectances) for RGB mode, and the spectrum itself for spectral mode
                 PropValue::Spectrum(s) => match s.as_constant() {
                     Some(v) => Value::Float(v),
                     None => {
@@ -830,7 +844,10 @@ impl Builder {
                                 ),
                             )
                         })?;
-                        Value::Rgb(Rgb(rgb))
+                        Value::Spectral {
+                            rgb: Rgb(rgb),
+                            curve: s.curve(),
+                        }
                     }
                 },
                 other => {
@@ -1015,7 +1032,13 @@ impl Builder {
             )));
         }
         let radiance = match textures.as_slice() {
-            [] => AreaRadiance::Rgb(crate::emitters::light_rgb(c, "radiance")?),
+            [] => {
+                let rgb = crate::emitters::light_rgb(c, "radiance")?;
+                match crate::emitters::light_spectrum(c, "radiance")? {
+                    Some(curve) => AreaRadiance::Spectral { rgb, curve },
+                    None => AreaRadiance::Rgb(rgb),
+                }
+            }
             [t] if t.name == "radiance" && !c.has("radiance") => {
                 AreaRadiance::Texture(t.texture.clone())
             }

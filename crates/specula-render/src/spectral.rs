@@ -13,28 +13,44 @@
 //!    draws its four independently per sample);
 //! 2. the integrator (`path`, `direct` or `volpath`) runs unchanged with the wavelengths in
 //!    every [`specula_bsdf::ShadingPoint`]: BSDF parameters evaluate at them (RGB constants and
-//!    texels are upsampled, [`specula_bsdf::SpectrumParam`]); emitted RGB radiance (area,
-//!    point, spot, directional, constant, projector — whatever an emitter returns) is converted
-//!    where the integrator receives it, by [`emission`] (Mitsuba's `d65` spectrum: an
-//!    RGB-white emitter is D65); an `envmap` upsamples its texels and interpolates as
-//!    Mitsuba's does ([`crate::emitters::Envmap::eval_spectral`]);
+//!    texels are upsampled, [`specula_bsdf::SpectrumParam`]; a `<spectrum>` value of the
+//!    scene file is used as the spectrum it is, `SpectrumParam::Spectral`); emitted RGB
+//!    radiance (area, point, spot, directional, constant, projector — whatever an emitter
+//!    returns) is converted where the integrator receives it, by [`emission`] (Mitsuba's `d65`
+//!    spectrum: an RGB-white emitter is D65), and an emitter whose value is a `<spectrum>`
+//!    emits that spectrum instead ([`AreaRadiance::emission`], `Scene::light_weight`,
+//!    [`infinite_emission`]); an `envmap` upsamples its texels and interpolates as Mitsuba's
+//!    does ([`crate::emitters::Envmap::eval_spectral`]);
 //! 3. the film receives the result developed to linear sRGB through the CIE 1931 observer
 //!    ([`cie::develop`], Mitsuba's normalisation), so reconstruction filters and the output
 //!    files are the same as in RGB mode.
 //!
-//! Not supported (an error from [`Scene::set_spectral`]): the `aov` and `depth` integrators
-//! (their channels are not radiance) and participating media (their coefficients are not
-//! yet evaluated per wavelength). `<spectrum>` values in the scene file are still converted to
-//! RGB when the scene loads and then upsampled like any RGB value.
+//! `<spectrum>` values ([`crate::xml::spectrum`]): the scene loads the same way in both modes;
+//! a parameter given a `<spectrum>` keeps its RGB conversion (what RGB mode uses, unchanged)
+//! beside the spectrum itself (what spectral mode evaluates at the path's wavelengths), so
+//! switching modes needs no reload.
+//!
+//! `depth` and `aov` (as Mitsuba 3.9.1's `*_spectral` variants render them, probed): the
+//! `depth` integrator's value t is a spectrum like any other, flat at t, and is developed
+//! like radiance (so its image tends to t × (1.2049, 0.9482, 0.9093), the colour of an
+//! equal-energy spectrum, with colour noise, exactly as in Mitsuba); the `aov` integrator's
+//! nested integrators are spectral and developed, its `albedo` output is the diffuse
+//! reflectance at the wavelengths, developed the same way (no D65 weighting: a white albedo
+//! also tends to (1.2049, 0.9482, 0.9093)), and its other outputs (depth, position, normals,
+//! uv, partial derivatives, indices) are geometric and the same as in RGB mode.
+//!
+//! Participating media evaluate their coefficients at the wavelengths
+//! ([`crate::media::spectral`]); a medium with a `raw` RGB grid (no spectrum) is refused by
+//! [`Scene::set_spectral`].
 
 use crate::core::{Hit, Ray, Result, SceneError};
 use crate::emitters::Emitter;
-use crate::integrator::{Counters, Integrator, LightSample};
+use crate::integrator::{Counters, Integrator, LightSample, RayDifferentials};
 use crate::sampler::{PixelSampler, Sampler};
-use crate::scene::{Light, Scene};
-use glam::Vec3;
+use crate::scene::{AreaRadiance, Light, Scene};
+use glam::{Vec2, Vec3};
 use specula_bsdf::spectral::{cie, upsample};
-use specula_bsdf::{Rgb, Wavelengths};
+use specula_bsdf::{Rgb, Spectrum, Wavelengths};
 
 /// The sampler dimension the wavelength sample is drawn from (far from the integrator's).
 pub const WAVELENGTH_DIMENSION: u32 = 0x5eec_0000;
@@ -70,14 +86,49 @@ pub fn emission(rgb: Rgb, wl: Option<&Wavelengths>) -> Rgb {
 }
 
 /// An infinite emitter's radiance `le` (its RGB value along `d`) at the wavelengths: the
-/// envmap's own spectral lookup ([`crate::emitters::Envmap::eval_spectral`], as Mitsuba), any
-/// other's [`emission`].
+/// envmap's own spectral lookup ([`crate::emitters::Envmap::eval_spectral`], as Mitsuba), a
+/// `<spectrum>` radiance's values, any other's [`emission`].
 #[inline]
 pub fn infinite_emission(e: &Emitter, d: Vec3, le: Rgb, wl: Option<&Wavelengths>) -> Rgb {
     match (e, wl) {
         (_, None) => le,
         (Emitter::Envmap(m), Some(w)) => m.eval_spectral(d, w),
+        (Emitter::Constant(c), Some(w)) if c.spectrum.is_some() => {
+            c.spectrum.as_ref().map_or(Rgb::ZERO, |s| s.eval_at(w))
+        }
         (_, Some(w)) => upsample::illuminant(le, w),
+    }
+}
+
+/// `spectrum` scaled as `weight` scales `value` (a light sample's weight is the emitter's value
+/// times a positive factor: geometry, pdf): the factor is read off `value`'s largest channel.
+#[inline]
+fn scaled_like(spectrum: Spectrum, value: Rgb, weight: Rgb) -> Spectrum {
+    let v = value.0;
+    let k = if v[0] >= v[1] && v[0] >= v[2] {
+        0
+    } else if v[1] >= v[2] {
+        1
+    } else {
+        2
+    };
+    if v[k] > 0.0 {
+        spectrum * (weight.0[k] / v[k])
+    } else {
+        Spectrum::ZERO
+    }
+}
+
+impl AreaRadiance {
+    /// The radiance emitted at a surface point (texture coordinates `uv`, position `p`) as a
+    /// path sees it: the RGB value in RGB mode (`wl` = `None`); in spectral mode a `<spectrum>`
+    /// radiance's values at the wavelengths, and any other value's [`emission`].
+    #[inline]
+    pub fn emission(&self, uv: Vec2, p: Vec3, wl: Option<&Wavelengths>) -> Rgb {
+        match (self, wl) {
+            (AreaRadiance::Spectral { curve, .. }, Some(w)) => curve.eval_at(w),
+            _ => emission(self.eval(uv, p), wl),
+        }
     }
 }
 
@@ -91,32 +142,39 @@ impl Scene {
         };
         match &self.lights[ls.light as usize] {
             Light::Other(Emitter::Envmap(m)) => m.eval_spectral(ls.wi, w) * (1.0 / ls.pdf),
+            Light::Area {
+                radiance: AreaRadiance::Spectral { rgb, curve },
+                ..
+            } => scaled_like(curve.eval_at(w), *rgb, ls.weight),
+            Light::Other(e) => match e.spectrum() {
+                None => upsample::illuminant(ls.weight, w),
+                Some((curve, value)) => match e {
+                    // a spot's texture (an RGB image) is upsampled as a reflectance, as Mitsuba
+                    // does, and multiplies the spectrum
+                    Emitter::Spot(l) => match l.texture_towards(-ls.wi) {
+                        Some(t) => scaled_like(
+                            curve.eval_at(w) * upsample::unbounded(t, w),
+                            value * t,
+                            ls.weight,
+                        ),
+                        None => scaled_like(curve.eval_at(w), value, ls.weight),
+                    },
+                    _ => scaled_like(curve.eval_at(w), value, ls.weight),
+                },
+            },
             _ => upsample::illuminant(ls.weight, w),
         }
     }
 
     /// Switches the scene to spectral (`true`) or RGB (`false`) rendering. Spectral mode
     /// computes the upsampling table the first time (about 3 s on two cores; once per
-    /// process). Fails for integrators whose output is not radiance (`aov`, `depth`) and for
-    /// scenes with participating media.
+    /// process). Fails for media with a `raw` RGB grid (no spectrum); upsamples the media's
+    /// coefficients.
     pub fn set_spectral(&mut self, on: bool) -> Result<()> {
         if on {
-            let bad = match &self.integrator {
-                Integrator::Aov(_) => Some("aov"),
-                Integrator::Depth => Some("depth"),
-                _ => None,
-            };
-            if let Some(b) = bad {
-                return Err(SceneError::new(
-                    None,
-                    format!("spectral mode renders radiance; the '{b}' integrator is RGB-only"),
-                ));
-            }
-            if !self.media.is_empty() {
-                return Err(SceneError::new(
-                    None,
-                    "participating media are not supported in spectral mode yet",
-                ));
+            for (i, m) in self.media.iter_mut().enumerate() {
+                m.prepare_spectral()
+                    .map_err(|e| SceneError::new(None, format!("medium {i}: {e}")))?;
             }
             upsample::table();
         }
@@ -124,27 +182,73 @@ impl Scene {
         Ok(())
     }
 
-    /// One spectral sample of the integrator along the camera ray `ray` (intersection `hit`):
-    /// the wavelengths are drawn from `u_wavelength`, the result is developed to linear sRGB.
+    /// One spectral sample of the integrator along the camera ray `ray` (intersection `hit`,
+    /// differentials `differentials` for the `aov` integrator's `duv_dx`/`duv_dy`): the
+    /// wavelengths are drawn from `u_wavelength`, the result is developed to linear sRGB; an
+    /// `aov` integrator writes its channels into `aovs` (see [`Scene::sample`]).
+    #[allow(clippy::too_many_arguments)]
     pub fn sample_spectral<S: Sampler>(
         &self,
         integrator: &Integrator,
         ray: Ray,
+        differentials: Option<&RayDifferentials>,
         hit: Option<Hit>,
         rng: &mut S,
         counters: &mut Counters,
         u_wavelength: f32,
+        aovs: &mut [f32],
     ) -> Rgb {
         let (wl, weight) = cie::sample_wavelengths(u_wavelength);
-        let w = Some(&wl);
+        self.sample_at_wavelengths(
+            integrator,
+            ray,
+            differentials,
+            hit,
+            rng,
+            counters,
+            (&wl, &weight),
+            aovs,
+        )
+    }
+
+    /// [`Scene::sample_spectral`] at given wavelengths `wl.0` (weights 1/p(λ) `wl.1`).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn sample_at_wavelengths<S: Sampler>(
+        &self,
+        integrator: &Integrator,
+        ray: Ray,
+        differentials: Option<&RayDifferentials>,
+        hit: Option<Hit>,
+        rng: &mut S,
+        counters: &mut Counters,
+        (wl, weight): (&Wavelengths, &[f32; 3]),
+        aovs: &mut [f32],
+    ) -> Rgb {
+        let w = Some(wl);
         let l = match integrator {
             Integrator::Path(p) => self.li_path(p, ray, hit, rng, counters, w),
             Integrator::Volpath(p) => self.li_volpath(p, ray, hit, rng, counters, w),
             Integrator::Direct(d) => self.li_direct(d, ray, hit, rng, counters, w),
-            // refused by set_spectral
-            Integrator::Depth | Integrator::Aov(_) => return Rgb::ZERO,
+            // a flat spectrum of value t, developed like radiance (as Mitsuba's spectral
+            // variants do)
+            Integrator::Depth => {
+                counters.rays += 1;
+                Spectrum::splat(hit.map_or(0.0, |h| h.t))
+            }
+            Integrator::Aov(a) => {
+                return self.li_aov(
+                    a,
+                    ray,
+                    differentials,
+                    hit,
+                    rng,
+                    counters,
+                    aovs,
+                    Some((wl, weight)),
+                )
+            }
         };
-        cie::develop(l, &wl, &weight)
+        cie::develop(l, wl, weight)
     }
 }
 
@@ -155,13 +259,18 @@ mod tests {
     use std::sync::atomic::AtomicBool;
 
     fn scene(body: &str) -> Scene {
+        scene_sampled(body, "independent")
+    }
+
+    /// [`scene`] with another sampler.
+    fn scene_sampled(body: &str, sampler: &str) -> Scene {
         let xml = format!(
             r#"<scene version="3.0.0">
             <sensor type="perspective"><float name="fov" value="30"/>
               <transform name="to_world"><lookat origin="0,0,5" target="0,0,0" up="0,1,0"/></transform>
               <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/>
                 <rfilter type="box"/></film>
-              <sampler type="independent"/></sensor>
+              <sampler type="{sampler}"/></sensor>
             {body}</scene>"#
         );
         let dir = std::env::temp_dir().join(format!("specula_spectral_{}", std::process::id()));
@@ -233,10 +342,132 @@ mod tests {
         }
     }
 
+    /// Mean of each channel of `rgb` (interleaved, `stride` values a pixel) over the pixels
+    /// where `keep` holds.
+    fn channel_means(v: &[f32], stride: usize, keep: impl Fn(usize) -> bool) -> Vec<f64> {
+        let mut sum = vec![0.0f64; stride];
+        let mut n = 0usize;
+        for (i, p) in v.chunks(stride).enumerate() {
+            if keep(i) {
+                n += 1;
+                for (s, x) in sum.iter_mut().zip(p) {
+                    *s += *x as f64;
+                }
+            }
+        }
+        sum.iter().map(|s| s / n as f64).collect()
+    }
+
+    /// The `depth` integrator in spectral mode (Mitsuba 3.9.1's `scalar_spectral`): its value t
+    /// is developed as a flat spectrum, t × (1.2049, 0.9482, 0.9093) in expectation (Mitsuba
+    /// renders t = 4.125 as (4.92, 3.93, 3.77) at 256 spp: colour noise around that). A plane
+    /// facing the camera at distance 5 fills the image.
     #[test]
-    fn rgb_only_integrators_are_refused() {
-        let mut s = scene(r#"<integrator type="depth"/><shape type="sphere"/>"#);
-        let e = s.set_spectral(true).unwrap_err();
-        assert!(e.to_string().contains("depth"), "{e}");
+    fn depth_integrator_is_developed_as_a_flat_spectrum() {
+        let mut s = scene(
+            r#"<integrator type="depth"/>
+            <shape type="rectangle"><transform name="to_world"><scale value="10"/></transform></shape>"#,
+        );
+        let rgb_mode = render(
+            &s,
+            &RenderOptions {
+                spp: 4,
+                seed: 1,
+                threads: 0,
+            },
+            &AtomicBool::new(false),
+            &|_, _| {},
+        );
+        s.set_spectral(true).unwrap();
+        let out = render(
+            &s,
+            &RenderOptions {
+                spp: 256,
+                seed: 1,
+                threads: 0,
+            },
+            &AtomicBool::new(false),
+            &|_, _| {},
+        );
+        let t = channel_means(&rgb_mode.rgb, 3, |_| true);
+        let m = channel_means(&out.rgb, 3, |_| true);
+        let white_e = [1.204_884, 0.948_228, 0.909_267];
+        for k in 0..3 {
+            assert!((t[k] - t[0]).abs() < 1e-6 && t[0] > 5.0, "{t:?}");
+            assert!(
+                (m[k] / (t[0] * white_e[k]) - 1.0).abs() < 0.01,
+                "channel {k}: {m:?}"
+            );
+        }
+    }
+
+    /// The `aov` integrator in spectral mode: the geometric outputs are those of RGB mode, the
+    /// nested `path` integrator is spectral (its image keeps its colour), and `albedo` is the
+    /// reflectance at the wavelengths developed without D65 (a grey 0.5 tends to 0.5 × the
+    /// equal-energy white; Mitsuba 3.9.1 `scalar_spectral` renders the same way).
+    #[test]
+    fn aov_integrator_in_spectral_mode() {
+        let xml = r#"<integrator type="aov">
+              <string name="aovs" value="dd:depth, nn:sh_normal, alb:albedo, uv:uv"/>
+              <integrator type="path" name="img"><integer name="max_depth" value="2"/></integrator>
+            </integrator>
+            <emitter type="constant"><rgb name="radiance" value="0.8, 0.4, 0.2"/></emitter>
+            <shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></shape>"#;
+        // (a sampler that keeps the camera rays of RGB mode: the wavelengths come from a
+        // dimension of their own)
+        let mut s = scene_sampled(xml, "stratified");
+        let opts = RenderOptions {
+            spp: 512,
+            seed: 3,
+            threads: 0,
+        };
+        let rgb_mode = render(&s, &opts, &AtomicBool::new(false), &|_, _| {});
+        s.set_spectral(true).unwrap();
+        let out = render(&s, &opts, &AtomicBool::new(false), &|_, _| {});
+        let names: Vec<&str> = out.aovs.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "img.R", "img.G", "img.B", "img.A", "dd.T", "nn.X", "nn.Y", "nn.Z", "alb.R",
+                "alb.G", "alb.B", "uv.U", "uv.V"
+            ]
+        );
+        let ch = |o: &crate::render::RenderOutput, name: &str| {
+            o.aovs.iter().find(|(n, _)| n == name).unwrap().1.clone()
+        };
+        // geometric channels and alpha: as in RGB mode (box filter, same camera rays)
+        for name in ["img.A", "dd.T", "nn.X", "nn.Y", "nn.Z", "uv.U", "uv.V"] {
+            for (a, b) in ch(&out, name).iter().zip(ch(&rgb_mode, name)) {
+                assert!((a - b).abs() < 1e-4 * (1.0 + b.abs()), "{name}: {a} {b}");
+            }
+        }
+        let mean =
+            |name: &str, keep: &dyn Fn(usize) -> bool| channel_means(&ch(&out, name), 1, keep)[0];
+        // the albedo: RGB mode's (0.5 × the sphere's coverage of each pixel) × the
+        // equal-energy white
+        let white_e = [1.204_884, 0.948_228, 0.909_267];
+        for (k, c) in ["alb.R", "alb.G", "alb.B"].into_iter().enumerate() {
+            let (a, b) = (
+                mean(c, &|_| true),
+                channel_means(&ch(&rgb_mode, c), 1, |_| true)[0],
+            );
+            assert!(
+                b > 0.1 && (a / (b * white_e[k]) - 1.0).abs() < 0.02,
+                "{c}: {a} {b}"
+            );
+        }
+        let depth = ch(&rgb_mode, "dd.T");
+        let off = |i: usize| depth[i] == 0.0;
+        assert!((0..depth.len()).any(off));
+        // the background of the nested image: the environment's colour
+        for (c, want) in [("img.R", 0.8), ("img.G", 0.4), ("img.B", 0.2)] {
+            let m = mean(c, &off);
+            assert!((m / want - 1.0).abs() < 0.02, "{c}: {m}");
+        }
+        // the image is the nested integrator's
+        for (k, c) in ["img.R", "img.G", "img.B"].into_iter().enumerate() {
+            let img = channel_means(&out.rgb, 3, |_| true)[k];
+            assert!((img - mean(c, &|_| true)).abs() < 1e-4, "{c}");
+        }
     }
 }

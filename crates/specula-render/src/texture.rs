@@ -43,12 +43,16 @@ fn apply_uv(m: &Mat3, uv: Vec2) -> Vec2 {
 }
 
 /// Mitsuba's `checkerboard`: `color0` where the fractional parts of u and v are both ≤ ½ or
-/// both > ½, `color1` elsewhere.
-#[derive(Clone, Debug, PartialEq)]
+/// both > ½, `color1` elsewhere. A colour given as a `<spectrum>` keeps the spectrum beside
+/// its RGB value (`spectra`), which spectral mode evaluates at the path's wavelengths (as
+/// Mitsuba's spectral variants do); the other colour is upsampled as any RGB value.
+#[derive(Clone, Debug)]
 pub struct Checkerboard {
     pub color0: Rgb,
     pub color1: Rgb,
     pub to_uv: Mat3,
+    /// `color0`'s and `color1`'s `<spectrum>`, if given as one.
+    pub spectra: [Option<std::sync::Arc<dyn specula_bsdf::bsdf::SpectralCurve>>; 2],
 }
 
 impl Default for Checkerboard {
@@ -58,6 +62,7 @@ impl Default for Checkerboard {
             color0: Rgb::splat(0.4),
             color1: Rgb::splat(0.2),
             to_uv: Mat3::IDENTITY,
+            spectra: [None, None],
         }
     }
 }
@@ -69,6 +74,7 @@ impl Checkerboard {
             color0,
             color1,
             to_uv: uv_transform(&to_uv),
+            spectra: [None, None],
         }
     }
 
@@ -105,6 +111,17 @@ impl Texture for Checkerboard {
 
     fn mean(&self) -> Rgb {
         (self.color0 + self.color1) * 0.5
+    }
+
+    fn eval_spectral(&self, sp: &ShadingPoint, w: &specula_bsdf::Wavelengths) -> Option<Rgb> {
+        if self.spectra.iter().all(Option::is_none) {
+            return None;
+        }
+        let k = if self.is_color0(sp.uv) { 0 } else { 1 };
+        Some(match &self.spectra[k] {
+            Some(s) => s.eval_at(w),
+            None => specula_bsdf::spectral::upsample::unbounded([self.color0, self.color1][k], w),
+        })
     }
 }
 

@@ -287,8 +287,9 @@ impl WeaveParams for Props {
             return Ok(None);
         }
         match Props::spectrum(self, name, 0.0)? {
-            SpectrumParam::Const(c) => Ok(Some(c)),
-            SpectrumParam::Texture(_) | SpectrumParam::Spectral { .. } => Err(BuildError::new(
+            // (a `<spectrum>` value: its RGB; the model upsamples its RGB data in spectral mode)
+            SpectrumParam::Const(c) | SpectrumParam::Spectral { rgb: c, .. } => Ok(Some(c)),
+            SpectrumParam::Texture(_) => Err(BuildError::new(
                 self.loc.clone(),
                 format!(
                     "'irawan': parameter '{name}' must be a float or an rgb colour (the weave's \

@@ -28,12 +28,16 @@
 //! wi·h > 0 and wo·h < 0 (h the half vector of wi and the mirror image of wo), conditions that
 //! are not symmetric in wi and wo. The other lobes are.
 //!
+//! Spectral mode: the tints use Mitsuba's spectral luminance, as `principled`'s do
+//! (`principled::tint_luminance`).
+//!
 //! Deliberate differences from Mitsuba 3.9: [`BsdfModel::flags`] lists only the lobes that
 //! exist (Mitsuba always lists diffuse transmission and glossy reflection); constant weights
 //! outside their ranges are errors.
 
 use super::principled::{
     calc_schlick, compatible, diffuse_factor, ggx, schlick_r0, schlick_weight, sheen_color, tint,
+    tint_luminance,
 };
 use crate::bsdf::*;
 use crate::frame::reflect;
@@ -172,7 +176,8 @@ impl PrincipledThin {
                 if reflect {
                     let spec_tint = self.spec_tint.eval(sp);
                     let f_thin = if spec_tint != 0.0 {
-                        let r0 = tint(base, base.luminance()) * schlick_r0(eta);
+                        let lum = tint_luminance(&self.base_color, base, sp);
+                        let r0 = tint(base, lum) * schlick_r0(eta);
                         let fs = calc_schlick(r0, wi.dot(wh), eta);
                         Spectrum::splat(f * (1.0 - spec_tint)) + fs * spec_tint
                     } else {
@@ -194,7 +199,9 @@ impl PrincipledThin {
                 value += base * (w * FRAC_1_PI * kd);
                 let sheen = self.sheen.eval(sp);
                 if sheen > 0.0 {
-                    let c = sheen_color(base, self.sheen_tint.eval(sp));
+                    let c = sheen_color(base, self.sheen_tint.eval(sp), || {
+                        tint_luminance(&self.base_color, base, sp)
+                    });
                     value += c * (sheen * w * schlick_weight(cos_d.abs()));
                 }
             }

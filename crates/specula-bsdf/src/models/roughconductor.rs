@@ -71,10 +71,10 @@ impl RoughConductor {
         self.ms_f_avg = match (
             self.eta.rgb_constant(),
             self.k.rgb_constant(),
-            &self.specular_reflectance,
+            self.specular_reflectance.rgb_constant(),
         ) {
-            (Some(e), Some(k), SpectrumParam::Const(s)) if on => {
-                let fit = FresnelFit::conductor(e, k, *s);
+            (Some(e), Some(k), Some(s)) if on => {
+                let fit = FresnelFit::conductor(e, k, s);
                 let ms = match (&self.alpha_u, &self.alpha_v, &self.ms_aniso) {
                     (_, _, Some(t)) => Some(t.ms(0.0, &fit)),
                     (FloatParam::Const(u), FloatParam::Const(v), None) => {

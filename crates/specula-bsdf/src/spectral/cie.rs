@@ -169,6 +169,16 @@ pub fn wavelength_pdf(w: f32) -> f32 {
     PDF_SCALE / (c * c)
 }
 
+/// The CDF of [`wavelength_pdf`] at `w` nm (0 at 360 nm, 1 at 830 nm): the uniform number
+/// [`sample_wavelength`] maps to `w`.
+#[inline]
+pub fn wavelength_cdf(w: f32) -> f32 {
+    let a = (PDF_K * (CIE_MIN - PDF_CENTRE)).tanh();
+    let b = (PDF_K * (CIE_MAX - PDF_CENTRE)).tanh();
+    let x = (PDF_K * (w.clamp(CIE_MIN, CIE_MAX) - PDF_CENTRE)).tanh();
+    ((x - a) / (b - a)).clamp(0.0, 1.0)
+}
+
 /// Inverts the CDF of [`wavelength_pdf`]: the wavelength of the uniform number `u` ∈ [0, 1).
 #[inline]
 pub fn sample_wavelength(u: f32) -> f32 {

@@ -1,5 +1,7 @@
-//! `<spectrum>` values and their conversion to linear sRGB, as Mitsuba 3's RGB variants
-//! (`scalar_rgb`, `llvm_ad_rgb`) do it.
+//! `<spectrum>` values: their conversion to linear sRGB, as Mitsuba 3's RGB variants
+//! (`scalar_rgb`, `llvm_ad_rgb`) do it, and their values at any wavelength, as Mitsuba 3's
+//! spectral variants (`scalar_spectral`, `llvm_ad_spectral`) use them
+//! ([`Spectrum`] is a [`SpectralCurve`]).
 //!
 //! # Forms (what the XML reader produces)
 //! - `value="v"`: a constant ([`Spectrum::Constant`]).
@@ -41,8 +43,35 @@
 //!   same place would be (the answer of Mitsuba's spectral variants): `regular`/`irregular`
 //!   exactly like `value="λ:v, …"`; `blackbody` by evaluating Planck's law (W·m⁻²·sr⁻¹·nm⁻¹,
 //!   Mitsuba's constants) at the 1000 wavelengths; `blackbody` is accepted only for emission.
+//!
+//! # Spectral mode (Mitsuba 3.9.1's `*_spectral` variants, probed with its Python bindings)
+//! A parameter given a `<spectrum>` keeps both values: its RGB conversion above, used in RGB
+//! mode, and the spectrum itself ([`Spectrum::curve`]), used in spectral mode
+//! (`specula_bsdf::SpectrumParam::Spectral` for BSDF parameters, the emitters' `spectrum`
+//! fields and `AreaRadiance::Spectral` for lights). At wavelength λ, whatever the parameter:
+//! - wavelength lists, `.spd` files, `regular`, `irregular`: the linear interpolant, zero
+//!   outside the sampled range, *not* clamped (a reflectance of 1.5 at 500 nm stays 1.5, as
+//!   in Mitsuba's spectral variants, where the RGB variants clamp the colour to [0, 1]);
+//! - `value="v"` and `uniform`: v at every wavelength, emitters included (Mitsuba: a
+//!   `<spectrum value="0.5">` radiance is 0.5 everywhere, not 0.5 × D65; an `<rgb>` or
+//!   `<float>` radiance of 0.5 is 0.5 × D65);
+//! - `blackbody`: Planck's law in W·m⁻²·sr⁻¹·nm⁻¹, unnormalised, zero outside
+//!   [`wavelength_min`, `wavelength_max`];
+//! - `d65`: the normalised D65 illuminant × `scale`, with `color` Mitsuba's upsampled emission
+//!   spectrum of the colour ([`upsample::illuminant`]), for emitters and BSDFs alike;
+//! - `srgb`: the colour's upsampled reflectance spectrum ([`upsample::unbounded`]), also on an
+//!   emitter (no D65 factor: Mitsuba's `srgb` plugin is a reflectance spectrum wherever it is
+//!   used).
+//!
+//! An emitter's `<spectrum>` must not be negative anywhere (an error, as a negative RGB
+//! light is); a `blackbody` stays an emission-only spectrum (Mitsuba's spectral variants would
+//! take one as a reflectance too).
 
+use specula_bsdf::bsdf::SpectralCurve;
+use specula_bsdf::spectral::upsample;
+use specula_bsdf::{Rgb, Wavelengths};
 use std::fmt;
+use std::sync::Arc;
 
 /// Shortest wavelength of the CIE tables (nm).
 pub const CIE_MIN: f64 = 360.0;
@@ -361,6 +390,55 @@ impl Spectrum {
     }
 }
 
+impl Spectrum {
+    /// The spectrum as spectral mode evaluates it (see the module docs), shared.
+    pub fn curve(&self) -> Arc<dyn SpectralCurve> {
+        Arc::new(self.clone())
+    }
+
+    /// The smallest value of a tabulated spectrum (for the emitters' non-negativity check);
+    /// `None` for the other forms (which are non-negative by construction, or checked where
+    /// they are parsed).
+    pub fn min_sample(&self) -> Option<f64> {
+        match self {
+            Spectrum::Sampled(s) => s.values.iter().copied().reduce(f64::min),
+            Spectrum::Constant(v) | Spectrum::Uniform(v) => Some(*v),
+            _ => None,
+        }
+    }
+}
+
+impl SpectralCurve for Spectrum {
+    #[inline]
+    fn eval(&self, lambda: f32) -> f32 {
+        match self {
+            Spectrum::Constant(v) | Spectrum::Uniform(v) => *v as f32,
+            Spectrum::Sampled(s) => s.eval(lambda as f64).unwrap_or(0.0) as f32,
+            Spectrum::Blackbody { temperature, range } => {
+                let w = lambda as f64;
+                if (range[0]..=range[1]).contains(&w) {
+                    planck(w, *temperature) as f32
+                } else {
+                    0.0
+                }
+            }
+            Spectrum::D65 { .. } | Spectrum::Srgb { .. } => {
+                self.eval_at(&Wavelengths([lambda; 3])).0[0]
+            }
+        }
+    }
+
+    #[inline]
+    fn eval_at(&self, w: &Wavelengths) -> Rgb {
+        let rgb = |c: &[f64; 3]| Rgb(c.map(|v| v as f32));
+        match self {
+            Spectrum::D65 { color, scale } => upsample::illuminant(rgb(color), w) * *scale as f32,
+            Spectrum::Srgb { color, .. } => upsample::unbounded(rgb(color), w),
+            _ => Rgb(w.0.map(|l| self.eval(l))),
+        }
+    }
+}
+
 impl fmt::Display for Spectrum {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -446,6 +524,52 @@ mod tests {
         assert!((cie_d65(560.0) - 100.0 * D65_NORMALIZATION).abs() < 1e-12);
         // Mitsuba's blackbody plugin (scalar_spectral) at 500 nm, 5000 K: 12107.1689453125
         assert!((planck(500.0, 5000.0) / 12107.1689453125 - 1.0).abs() < 1e-6);
+    }
+
+    /// Values in spectral mode (Mitsuba 3.9.1 `scalar_spectral`, a diffuse reflectance or an
+    /// area emitter's radiance of each form evaluated at fixed wavelengths; the fixture test
+    /// `tests/spectral_xml.rs` compares many more).
+    #[test]
+    fn spectral_mode_values() {
+        let at = |s: &Spectrum, w: [f32; 3]| s.eval_at(&Wavelengths(w)).0;
+        // a list: its interpolant, zero outside, not clamped
+        let s = Spectrum::Sampled(Sampled::parse_pairs("400:0.2, 500:1.5, 600:0.3").unwrap());
+        assert_eq!(at(&s, [450.0, 500.0, 650.0]), [0.85, 1.5, 0.0]);
+        assert_eq!(s.eval(380.0), 0.0);
+        // constants and uniform: flat, on emitters too (not D65)
+        assert_eq!(
+            at(&Spectrum::Constant(0.5), [400.0, 555.0, 700.0]),
+            [0.5; 3]
+        );
+        assert_eq!(at(&Spectrum::Uniform(0.7), [400.0, 555.0, 700.0]), [0.7; 3]);
+        // blackbody: Planck's law, zero outside the range
+        let b = Spectrum::Blackbody {
+            temperature: 5000.0,
+            range: [450.0, 650.0],
+        };
+        let v = at(&b, [400.0, 500.0, 600.0]);
+        assert_eq!(v[0], 0.0);
+        assert!((v[1] / 12107.169 - 1.0).abs() < 1e-5, "{v:?}");
+        assert!((v[2] / 12762.37 - 1.0).abs() < 1e-5, "{v:?}");
+        // d65: the normalised illuminant × scale (0.83593, 1.104615, 0.909177 at scale 1)
+        let d = Spectrum::D65 {
+            color: [1.0; 3],
+            scale: 2.0,
+        };
+        let v = at(&d, [400.0, 500.0, 600.0]);
+        for (x, m) in v.iter().zip([0.83593, 1.104615, 0.909177]) {
+            assert!((x / (2.0 * m) - 1.0).abs() < 1e-5, "{v:?}");
+        }
+        // srgb: an upsampled reflectance (grey exactly flat), also on emitters
+        let g = Spectrum::Srgb {
+            color: [0.25; 3],
+            unbounded: false,
+        };
+        assert_eq!(at(&g, [400.0, 500.0, 600.0]), [0.25; 3]);
+        assert_eq!(g.eval(500.0), 0.25);
+        // what an emitter's check reads
+        assert_eq!(s.min_sample(), Some(0.2));
+        assert_eq!(b.min_sample(), None);
     }
 
     #[test]

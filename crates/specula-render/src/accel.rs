@@ -578,7 +578,7 @@ fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> Vec<BNode> {
         .map(|(lo, hi)| (lo.as_dvec3() + hi.as_dvec3()) * 0.5)
         .collect();
     let mut idx: Vec<u32> = (0..n as u32).collect();
-    let mut tree = build_range(&mut idx, boxes, &cent, prims, 0);
+    let mut tree = build_range(&mut idx, None, boxes, &cent, prims, 0);
     // children come after their parents: sum up in reverse
     for i in (0..tree.len()).rev() {
         if !tree[i].is_leaf() {
@@ -593,15 +593,56 @@ fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> Vec<BNode> {
 /// Ranges at least this large build their two halves in parallel.
 const PARALLEL_BUILD: usize = 1 << 14;
 
-/// The node over `range` (at least one primitive) and its split: (node, length of the first
-/// part); a single primitive gives a leaf and no split.
+/// The box bounds (`lo..hi`) and centroid bounds (`clo..chi`) of a set of primitives. Boxes
+/// and centroids are finite and never −0 (boxes are padded away from their coordinates), so
+/// these minima and maxima are the same bits whatever order the primitives come in.
+#[derive(Clone, Copy, Debug)]
+struct RangeBounds {
+    lo: Vec3,
+    hi: Vec3,
+    clo: DVec3,
+    chi: DVec3,
+}
+
+impl RangeBounds {
+    const EMPTY: RangeBounds = RangeBounds {
+        lo: Vec3::INFINITY,
+        hi: Vec3::NEG_INFINITY,
+        clo: DVec3::INFINITY,
+        chi: DVec3::NEG_INFINITY,
+    };
+
+    #[inline]
+    fn add(&mut self, (blo, bhi): (Vec3, Vec3), c: DVec3) {
+        self.lo = self.lo.min(blo);
+        self.hi = self.hi.max(bhi);
+        self.clo = self.clo.min(c);
+        self.chi = self.chi.max(c);
+    }
+
+    fn of(range: &[u32], boxes: &[(Vec3, Vec3)], cent: &[DVec3]) -> RangeBounds {
+        let mut b = RangeBounds::EMPTY;
+        for &i in range {
+            b.add(boxes[i as usize], cent[i as usize]);
+        }
+        b
+    }
+}
+
+/// How a node's range is split: the length of the first part and, when the split computed
+/// them on the way, the bounds of both parts.
+type Split = (usize, Option<[RangeBounds; 2]>);
+
+/// The node over `range` (at least one primitive; `bounds` its bounds when known) and its
+/// split; a single primitive gives a leaf and no split.
 fn node_and_split(
     range: &mut [u32],
+    bounds: Option<RangeBounds>,
     boxes: &[(Vec3, Vec3)],
     cent: &[DVec3],
     prims: &[Prim],
     depth: u32,
-) -> (BNode, Option<usize>) {
+) -> (BNode, Option<Split>) {
     if range.len() == 1 {
         let p = range[0];
         let (lo, hi) = boxes[p as usize];
@@ -614,24 +655,16 @@ fn node_and_split(
         };
         return (leaf, None);
     }
-    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    let (mut clo, mut chi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    for &i in range.iter() {
-        let (blo, bhi) = boxes[i as usize];
-        lo = lo.min(blo);
-        hi = hi.max(bhi);
-        let c = cent[i as usize];
-        clo = clo.min(c);
-        chi = chi.max(c);
-    }
+    let RangeBounds { lo, hi, clo, chi } =
+        bounds.unwrap_or_else(|| RangeBounds::of(range, boxes, cent));
     // A range of at most LEAF_TRIS triangles becomes one leaf (see `collapse`): how it is
     // split below never matters, so it is halved as it stands.
     let small = range.len() <= LEAF_TRIS as usize
         && range
             .iter()
             .all(|&i| matches!(prims[i as usize].shape, PrimShape::Triangle(_)));
-    let mid = if small {
-        range.len() / 2
+    let split = if small {
+        (range.len() / 2, None)
     } else {
         split(range, boxes, cent, clo, chi, depth)
     };
@@ -642,26 +675,29 @@ fn node_and_split(
         count: 0,
         tris_only: true,
     };
-    (node, Some(mid))
+    (node, Some(split))
 }
 
 /// The binary tree over the primitives `range` (root first, then the first part's subtree,
-/// then the second's; child indices relative to this tree). Large ranges build their halves
-/// in parallel; the tree is the same whatever the number of threads.
+/// then the second's; child indices relative to this tree; `bounds` the range's bounds when
+/// known). Large ranges build their halves in parallel; the tree is the same whatever the
+/// number of threads.
 fn build_range(
     range: &mut [u32],
+    bounds: Option<RangeBounds>,
     boxes: &[(Vec3, Vec3)],
     cent: &[DVec3],
     prims: &[Prim],
     depth: u32,
 ) -> Vec<BNode> {
     if range.len() >= PARALLEL_BUILD {
-        let (mut node, mid) = node_and_split(range, boxes, cent, prims, depth);
-        let mid = mid.expect("a large range splits");
+        let (mut node, split) = node_and_split(range, bounds, boxes, cent, prims, depth);
+        let (mid, parts) = split.expect("a large range splits");
+        let [ba, bb] = parts.map_or([None, None], |[a, b]| [Some(a), Some(b)]);
         let (a, b) = range.split_at_mut(mid);
         let (ta, tb) = rayon::join(
-            || build_range(a, boxes, cent, prims, depth + 1),
-            || build_range(b, boxes, cent, prims, depth + 1),
+            || build_range(a, ba, boxes, cent, prims, depth + 1),
+            || build_range(b, bb, boxes, cent, prims, depth + 1),
         );
         let mut tree = Vec::with_capacity(1 + ta.len() + tb.len());
         let second = 1 + ta.len() as u32;
@@ -678,18 +714,20 @@ fn build_range(
         return tree;
     }
     let mut tree: Vec<BNode> = Vec::with_capacity(2 * range.len());
-    // (first, end, parent, which child, depth)
-    let mut todo: Vec<(usize, usize, u32, usize, u32)> = vec![(0, range.len(), NO_CHILD, 0, depth)];
-    while let Some((s, e, parent, which, depth)) = todo.pop() {
+    // (first, end, parent, which child, depth, bounds)
+    let mut todo: Vec<(usize, usize, u32, usize, u32, Option<RangeBounds>)> =
+        vec![(0, range.len(), NO_CHILD, 0, depth, bounds)];
+    while let Some((s, e, parent, which, depth, bounds)) = todo.pop() {
         let index = tree.len() as u32;
         if parent != NO_CHILD {
             tree[parent as usize].kids[which] = index;
         }
-        let (node, mid) = node_and_split(&mut range[s..e], boxes, cent, prims, depth);
+        let (node, split) = node_and_split(&mut range[s..e], bounds, boxes, cent, prims, depth);
         tree.push(node);
-        if let Some(mid) = mid {
-            todo.push((s + mid, e, index, 1, depth + 1));
-            todo.push((s, s + mid, index, 0, depth + 1));
+        if let Some((mid, parts)) = split {
+            let [ba, bb] = parts.map_or([None, None], |[a, b]| [Some(a), Some(b)]);
+            todo.push((s + mid, e, index, 1, depth + 1, bb));
+            todo.push((s, s + mid, index, 0, depth + 1, ba));
         }
     }
     tree
@@ -704,7 +742,7 @@ fn split(
     clo: DVec3,
     chi: DVec3,
     depth: u32,
-) -> usize {
+) -> Split {
     let ext = chi - clo;
     let axis = if ext.x >= ext.y && ext.x >= ext.z {
         0
@@ -720,7 +758,7 @@ fn split(
                 cent[a as usize][axis].total_cmp(&cent[b as usize][axis])
             });
         }
-        m
+        (m, None)
     };
     // (`ext[axis] <= 0.0` would let a NaN extent through)
     if ext[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || depth >= MAX_SAH_DEPTH {
@@ -783,19 +821,26 @@ fn split(
         return median(range);
     }
     let (_, a, k) = best;
-    // partition: bins below k first
+    // partition: bins below k first; the bounds of both parts on the way (their nodes need
+    // them: one pass over the primitives fewer per level)
     let mut m = 0;
+    let mut parts = [RangeBounds::EMPTY; 2];
     for j in 0..range.len() {
-        if bin_of(cent[range[j] as usize][a], a) < k {
+        let i = range[j] as usize;
+        let c = cent[i];
+        if bin_of(c[a], a) < k {
+            parts[0].add(boxes[i], c);
             range.swap(m, j);
             m += 1;
+        } else {
+            parts[1].add(boxes[i], c);
         }
     }
     if m == 0 || m == range.len() {
         // cannot happen (both sides counted non-empty), but never build an endless loop
         return median(range);
     }
-    m
+    (m, Some(parts))
 }
 
 /// Per-ray constants of the watertight ray/triangle test.

@@ -299,6 +299,7 @@ impl Scene {
         drop(parse);
         opts.apply(&mut root)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        prefetch_bsdf_tables(&root);
         let _images = crate::image_io::prefetch(crate::texture::scene_images(&root, &base));
         Builder {
             base,
@@ -459,6 +460,89 @@ fn find_and_build_bsdf(
         Some(n) => b.bsdf(n).map_err(Some),
         None => Err(None),
     }
+}
+
+/// The plain parameters of a `<bsdf>` node (numbers, strings, colours; not its nested
+/// elements) as material-library [`Props`]; `filename`s resolve through `resolve`.
+fn bsdf_plain_props(n: &Node, resolve: impl Fn(&Loc, &str) -> PathBuf) -> Result<Props> {
+    let mut props = Props::new(n.plugin_type.clone(), loc_str(&n.loc));
+    for p in &n.props {
+        let v = match &p.value {
+            PropValue::Float(v) => Value::Float(*v),
+            PropValue::Int(v) => Value::Int(*v),
+            PropValue::Bool(v) => Value::Bool(*v),
+            // data files of measured materials resolve relative to the scene file
+            PropValue::Str(v) if p.name == "filename" => {
+                Value::Str(resolve(&p.loc, v).to_string_lossy().into_owned())
+            }
+            PropValue::Str(v) => Value::Str(v.clone()),
+            PropValue::Rgb(v) => Value::Rgb(Rgb(*v)),
+            // a constant stays a number; anything else becomes RGB the way Mitsuba's
+            // plugins read it: IORs and roughness unbounded, the rest as reflectances
+            PropValue::Spectrum(s) => match s.as_constant() {
+                Some(v) => Value::Float(v),
+                None => {
+                    let usage = match p.name.as_str() {
+                        "eta" | "k" | "alpha" | "alpha_u" | "alpha_v" => Usage::Unbounded,
+                        _ => Usage::Reflectance,
+                    };
+                    let rgb = s.to_rgb(usage).map_err(|why| {
+                        SceneError::new(
+                            Some(p.loc.clone()),
+                            format!("parameter '{}' of bsdf '{}': {why}", p.name, n.plugin_type),
+                        )
+                    })?;
+                    Value::Rgb(Rgb(rgb))
+                }
+            },
+            other => {
+                return Err(SceneError::new(
+                    Some(p.loc.clone()),
+                    format!(
+                        "parameter '{}' of bsdf '{}' cannot be a {other:?}",
+                        p.name, n.plugin_type
+                    ),
+                ))
+            }
+        };
+        props.set(&p.name, v, loc_str(&p.loc)).map_err(bsdf_err)?;
+    }
+    Ok(props)
+}
+
+/// Starts building, on a thread of its own, the BSDFs whose construction precomputes tables
+/// (`roughplastic`'s coat transmittance and internal reflectance: tens of milliseconds each)
+/// from their plain parameters, which alone decide the tables (nested textures do not). The
+/// tables are cached process-wide, so the loader's own build of each such BSDF, in document
+/// order, takes them from the cache or waits for them instead of computing them after the
+/// images and meshes before it; meanwhile they are computed on cores the loader leaves idle
+/// (while it waits for an image, or builds the BVH). The results are the same bits: the
+/// tables depend only on those parameters. Errors are left to the loader's build.
+fn prefetch_bsdf_tables(root: &Node) {
+    fn walk(n: &Node, out: &mut Vec<Props>) {
+        if n.tag == "bsdf" && n.plugin_type == "roughplastic" {
+            if let Ok(p) = bsdf_plain_props(n, |_, v| PathBuf::from(v)) {
+                out.push(p);
+            }
+        }
+        for c in &n.children {
+            walk(c, out);
+        }
+    }
+    let mut props = vec![];
+    walk(root, &mut props);
+    if props.is_empty() {
+        return;
+    }
+    let spawned = std::thread::Builder::new()
+        .name("specula-bsdf-tables".into())
+        .spawn(move || {
+            for p in props {
+                let _ = build_bsdf(p);
+            }
+        });
+    // (without a thread the loader computes the tables itself)
+    drop(spawned);
 }
 
 fn loc_str(l: &Loc) -> Option<String> {
@@ -800,51 +884,7 @@ impl Builder {
     /// Convert an XML BSDF node into the material library's parameters and build it.
     fn bsdf(&self, n: &Node) -> Result<Bsdf> {
         let _t = crate::timings::span(crate::timings::Phase::Bsdfs);
-        let mut props = Props::new(n.plugin_type.clone(), loc_str(&n.loc));
-        for p in &n.props {
-            let v = match &p.value {
-                PropValue::Float(v) => Value::Float(*v),
-                PropValue::Int(v) => Value::Int(*v),
-                PropValue::Bool(v) => Value::Bool(*v),
-                // data files of measured materials resolve relative to the scene file
-                PropValue::Str(v) if p.name == "filename" => {
-                    Value::Str(self.resolve_from(&p.loc, v).to_string_lossy().into_owned())
-                }
-                PropValue::Str(v) => Value::Str(v.clone()),
-                PropValue::Rgb(v) => Value::Rgb(Rgb(*v)),
-                // a constant stays a number; anything else becomes RGB the way Mitsuba's
-                // plugins read it: IORs and roughness unbounded, the rest as reflectances
-                PropValue::Spectrum(s) => match s.as_constant() {
-                    Some(v) => Value::Float(v),
-                    None => {
-                        let usage = match p.name.as_str() {
-                            "eta" | "k" | "alpha" | "alpha_u" | "alpha_v" => Usage::Unbounded,
-                            _ => Usage::Reflectance,
-                        };
-                        let rgb = s.to_rgb(usage).map_err(|why| {
-                            SceneError::new(
-                                Some(p.loc.clone()),
-                                format!(
-                                    "parameter '{}' of bsdf '{}': {why}",
-                                    p.name, n.plugin_type
-                                ),
-                            )
-                        })?;
-                        Value::Rgb(Rgb(rgb))
-                    }
-                },
-                other => {
-                    return Err(SceneError::new(
-                        Some(p.loc.clone()),
-                        format!(
-                            "parameter '{}' of bsdf '{}' cannot be a {other:?}",
-                            p.name, n.plugin_type
-                        ),
-                    ))
-                }
-            };
-            props.set(&p.name, v, loc_str(&p.loc)).map_err(bsdf_err)?;
-        }
+        let mut props = bsdf_plain_props(n, |loc, v| self.resolve_from(loc, v))?;
         n.mark_all_used();
         for c in &n.children {
             match c.tag.as_str() {

@@ -301,6 +301,7 @@ impl Scene {
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         prefetch_bsdf_tables(&root);
         let _images = crate::image_io::prefetch(crate::texture::scene_images(&root, &base));
+        let _meshes = crate::prefetch::prefetch_meshes(mesh_files(&root, &base));
         Builder {
             base,
             ids: HashMap::new(),
@@ -545,6 +546,47 @@ fn prefetch_bsdf_tables(root: &Node) {
     drop(spawned);
 }
 
+/// [`Builder::resolve_from`] with the main scene's directory `base`.
+fn resolve_file(base: &Path, loc: &Loc, name: &str) -> PathBuf {
+    let p = Path::new(name);
+    if p.is_absolute() {
+        return p.to_path_buf();
+    }
+    if let Some(dir) = Path::new(&loc.file).parent() {
+        let candidate = dir.join(p);
+        if candidate.exists() {
+            return candidate;
+        }
+    }
+    base.join(p)
+}
+
+/// The mesh files of the scene's `obj`, `ply` and `serialized` shapes (wherever nested), as
+/// [`crate::prefetch`] keys them: what the loader will read, started ahead of it. A shape
+/// whose parameters are not plain (the loader will report it) is left out.
+fn mesh_files(root: &Node, base: &Path) -> Vec<crate::prefetch::MeshKey> {
+    fn walk(n: &Node, base: &Path, out: &mut Vec<crate::prefetch::MeshKey>) {
+        if n.tag == "shape" && matches!(n.plugin_type.as_str(), "obj" | "ply" | "serialized") {
+            let prop = |name: &str| n.props.iter().find(|p| p.name == name).map(|p| &p.value);
+            let index = match (n.plugin_type.as_str(), prop("shape_index")) {
+                ("serialized", Some(PropValue::Int(i))) => Some(*i),
+                ("serialized", Some(_)) => None,
+                _ => Some(0),
+            };
+            if let (Some(PropValue::Str(file)), Some(index)) = (prop("filename"), index) {
+                let path = resolve_file(base, &n.loc, file);
+                out.push((n.plugin_type.clone(), path, index));
+            }
+        }
+        for c in &n.children {
+            walk(c, base, out);
+        }
+    }
+    let mut out = vec![];
+    walk(root, base, &mut out);
+    out
+}
+
 fn loc_str(l: &Loc) -> Option<String> {
     Some(l.to_string())
 }
@@ -584,17 +626,7 @@ impl Builder {
     /// that declares it (an `<include>`d file), then to the main scene's directory — like
     /// Mitsuba's file resolver.
     fn resolve_from(&self, loc: &Loc, name: &str) -> PathBuf {
-        let p = Path::new(name);
-        if p.is_absolute() {
-            return p.to_path_buf();
-        }
-        if let Some(dir) = Path::new(&loc.file).parent() {
-            let candidate = dir.join(p);
-            if candidate.exists() {
-                return candidate;
-            }
-        }
-        self.base.join(p)
+        resolve_file(&self.base, loc, name)
     }
 
     fn build(mut self, root: &Node) -> Result<Scene> {
@@ -1093,11 +1125,12 @@ impl Builder {
                 let file = n.string_opt("filename")?.ok_or_else(|| SceneError::new(Some(n.loc.clone()), format!("{} needs 'filename'", n.plugin_type)))?;
                 let face_normals = n.bool("face_normals", false)?;
                 let path = self.resolve_from(&n.loc, &file);
-let mut data = match n.plugin_type.as_str() {
-                    "obj" => crate::mesh_io::load_obj(&path),
-                    "ply" => crate::mesh_io::load_ply(&path),
-                    _ => crate::serialized::load_serialized(&path, n.int("shape_index", 0)?),
-                }
+let shape_index = match n.plugin_type.as_str() {
+                    "serialized" => n.int("shape_index", 0)?,
+                    _ => 0,
+                };
+                // (from the prefetch started with the scene, when it holds the file)
+                let mut data = crate::prefetch::take_mesh(&n.plugin_type, &path, shape_index)
                 .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
                 // Mitsuba's OBJ loader flips v unless told not to (load_obj flips, as the default)
                 if n.plugin_type == "obj" && !n.bool("flip_tex_coords", true)? {

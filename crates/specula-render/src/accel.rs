@@ -2158,7 +2158,9 @@ mod tests {
             };
             let mid = if r.len() <= LEAF_TRIS as usize && r.iter().all(|&i| tri(i)) {
                 r.len() / 2
-            } else if !(ext[axis] > 0.0) || depth >= MAX_SAH_DEPTH {
+            } else if ext[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+                || depth >= MAX_SAH_DEPTH
+            {
                 median(r)
             } else {
                 let bin_of = |c: f64, a: usize| {

@@ -474,7 +474,11 @@ mod tests {
                             for i in (0..TRANSMITTANCE_RES).step_by(3).chain([63]) {
                                 let mu = (i as f32 / 63.0).max(1e-6);
                                 let wi = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
-                                let res = if (i + kind as usize) % 2 == 0 { 16 } else { 32 };
+                                let res = if (i + kind as usize).is_multiple_of(2) {
+                                    16
+                                } else {
+                                    32
+                                };
                                 let albedo = |m: Vec3| {
                                     calls_ref.set(calls_ref.get() + 1);
                                     let wo = reflect(wi, m);

@@ -4,19 +4,22 @@
 
     cargo build --release -p specula-cli
     python3 scripts/bench_spectral.py [--spp 64] [--scenes cbox,mat_diffuse_textured,envmap_spheres]
-        [--repeat 2] [--threads 0] [--no-mitsuba]
+        [--repeat 2] [--threads 0] [--no-mitsuba] [--media]
 
 Prints samples/s (pixels × spp / seconds of the render call; scene loading excluded): for
 Specula from `specula render`'s summary line (spectral mode's one-off upsampling table is
 computed before the render starts, so it is excluded too; the script prints its cost
 separately), for Mitsuba around `mi.render` after an untimed 4-spp warm-up render that compiles
-the kernels. `--repeat N` keeps each figure's best of N runs. Mitsuba is optional (pip
+the kernels. `--media` takes the participating-media scenes of ../shared/media/scenes
+(default med_absorbing_glass,med_fog_box,med_subsurface; `volpath`) instead. `--repeat N` keeps each figure's best of N runs. Mitsuba is optional (pip
 `mitsuba`, libLLVM: DRJIT_LIBLLVM_PATH, /usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 by default).
 """
 import argparse, os, re, subprocess, sys, time, pathlib
 
 root = pathlib.Path(__file__).resolve().parent.parent
 shared = root.parent / "shared" / "scenes"
+shared_media = root.parent / "shared" / "media" / "scenes"
+MEDIA_SCENES = "med_absorbing_glass,med_fog_box,med_subsurface"
 LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"
 
 
@@ -58,7 +61,11 @@ print(w * h * {spp} / (time.perf_counter() - t))
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--spp", type=int, default=64)
-    ap.add_argument("--scenes", default="cbox,mat_diffuse_textured,envmap_spheres,mat_glass")
+    ap.add_argument("--scenes", default=None,
+                    help="default cbox,mat_diffuse_textured,envmap_spheres,mat_glass "
+                    f"(with --media: {MEDIA_SCENES})")
+    ap.add_argument("--media", action="store_true",
+                    help="scenes from ../shared/media/scenes (participating media)")
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--threads", type=int, default=0)
     ap.add_argument("--no-mitsuba", action="store_true")
@@ -68,8 +75,10 @@ def main():
     fmt = lambda v: "n/a" if v is None else f"{v / 1e6:.3f}"
     print(f"{'scene':<22} {'Specula rgb':>12} {'spectral':>10} {'ratio':>6}"
           f" {'mi llvm rgb':>12} {'spectral':>10} {'ratio':>6}   (M samples/s, {a.spp} spp)")
-    for name in a.scenes.split(","):
-        scene = shared / f"{name}.xml"
+    names = a.scenes or (MEDIA_SCENES if a.media
+                         else "cbox,mat_diffuse_textured,envmap_spheres,mat_glass")
+    for name in names.split(","):
+        scene = (shared_media if a.media else shared) / f"{name}.xml"
         best = lambda f: max((f() for _ in range(a.repeat)), key=lambda v: -1 if v is None else v)
         rgb = best(lambda: specula(scene, a.spp, a.threads, "rgb")[0])
         spec = best(lambda: specula(scene, a.spp, a.threads, "spectral")[0])

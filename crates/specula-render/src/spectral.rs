@@ -23,8 +23,8 @@
 //!    files are the same as in RGB mode.
 //!
 //! Not supported (an error from [`Scene::set_spectral`]): the `aov` and `depth` integrators
-//! (their channels are not radiance) and participating media (their coefficients are not
-//! yet evaluated per wavelength). `<spectrum>` values in the scene file are still converted to
+//! (their channels are not radiance). Participating media evaluate their coefficients at the
+//! wavelengths ([`crate::media::spectral`]). `<spectrum>` values in the scene file are still converted to
 //! RGB when the scene loads and then upsampled like any RGB value.
 
 use crate::core::{Hit, Ray, Result, SceneError};
@@ -98,7 +98,7 @@ impl Scene {
     /// Switches the scene to spectral (`true`) or RGB (`false`) rendering. Spectral mode
     /// computes the upsampling table the first time (about 3 s on two cores; once per
     /// process). Fails for integrators whose output is not radiance (`aov`, `depth`) and for
-    /// scenes with participating media.
+    /// media with a `raw` RGB grid (no spectrum); upsamples the media's coefficients.
     pub fn set_spectral(&mut self, on: bool) -> Result<()> {
         if on {
             let bad = match &self.integrator {
@@ -112,11 +112,9 @@ impl Scene {
                     format!("spectral mode renders radiance; the '{b}' integrator is RGB-only"),
                 ));
             }
-            if !self.media.is_empty() {
-                return Err(SceneError::new(
-                    None,
-                    "participating media are not supported in spectral mode yet",
-                ));
+            for (i, m) in self.media.iter_mut().enumerate() {
+                m.prepare_spectral()
+                    .map_err(|e| SceneError::new(None, format!("medium {i}: {e}")))?;
             }
             upsample::table();
         }

@@ -36,6 +36,13 @@
 //! `volpath`: tentative collisions at rate σ̄, each multiplying the transmittance by σn/σ̄ per
 //! channel.
 //!
+//! **Spectral mode** ([`crate::spectral`]): σt and the albedo are evaluated at the path's
+//! wavelengths ([`Volume::eval_spectral`]; how RGB constants and grids become spectra:
+//! [`super::spectral`]), the hero channel is the hero wavelength, and the majorant is
+//! `scale` × the largest value of σt's spectrum at any wavelength in 360…830 nm
+//! ([`Volume::spectral_max`], valid at every wavelength: an upsampled colour can exceed its
+//! largest channel), computed by [`Heterogeneous::prepare_spectral`].
+//!
 //! Deviations from Mitsuba: a `sigma_t` or `albedo` holding NaN, infinite or negative values,
 //! or an albedo above 1, is refused (Mitsuba renders garbage); so is a medium whose majorant
 //! optical depth across its box (σ̄ × the box's diagonal, the expected number of tentative
@@ -49,7 +56,7 @@ use super::volume::Volume;
 use super::FreeFlight;
 use crate::sampler::Sampler;
 use glam::Vec3;
-use specula_bsdf::Rgb;
+use specula_bsdf::{Rgb, Wavelengths};
 
 /// The largest majorant optical depth across the medium's box that a scene may ask for.
 pub const MAX_MAJORANT_DEPTH: f32 = 1.0e6;
@@ -68,6 +75,9 @@ pub struct Heterogeneous {
     pub bbox: (Vec3, Vec3),
     pub sample_emitters: bool,
     pub phase: PhaseFunction,
+    /// Spectral mode's majorant (`scale` × [`Volume::spectral_max`] of `sigma_t`), set by
+    /// [`Heterogeneous::prepare_spectral`] (computed on the fly before).
+    pub spectral_majorant: Option<f32>,
 }
 
 impl Heterogeneous {
@@ -80,13 +90,38 @@ impl Heterogeneous {
             scale,
             sample_emitters: true,
             phase,
+            spectral_majorant: None,
         }
     }
 
-    /// σt (after `scale`) at world point `p` inside the box.
+    /// Spectral mode: upsamples the volumes once and computes the spectral majorant.
+    pub fn prepare_spectral(&mut self) -> std::result::Result<(), String> {
+        self.sigma_t.prepare_spectral()?;
+        self.albedo.prepare_spectral()?;
+        self.spectral_majorant = Some(self.compute_spectral_majorant());
+        Ok(())
+    }
+
+    fn compute_spectral_majorant(&self) -> f32 {
+        // rounded up a little: `Sigmoid::max` is exact up to the rounding of one evaluation
+        self.scale * self.sigma_t.spectral_max() * (1.0 + 1e-6)
+    }
+
+    /// The majorant in RGB mode (`wl` = `None`) or spectral mode.
     #[inline]
-    pub fn sigma_t_at(&self, p: Vec3) -> Rgb {
-        self.sigma_t.eval(p) * self.scale
+    pub fn majorant_at(&self, wl: Option<&Wavelengths>) -> f32 {
+        match (wl, self.spectral_majorant) {
+            (None, _) => self.majorant,
+            (Some(_), Some(m)) => m,
+            (Some(_), None) => self.compute_spectral_majorant(),
+        }
+    }
+
+    /// σt (after `scale`) at world point `p` inside the box, in RGB mode (`wl` = `None`) or
+    /// at the wavelengths `wl`.
+    #[inline]
+    pub fn sigma_t_at(&self, p: Vec3, wl: Option<&Wavelengths>) -> Rgb {
+        self.sigma_t.eval_at(p, wl) * self.scale
     }
 
     /// The part [t0, t1] of the segment `o + t·d`, 0 ≤ t < `t_max`, inside the box; `None`
@@ -107,13 +142,14 @@ impl Heterogeneous {
     }
 
     /// Delta tracking along `o + t·d`, t < `t_max` (may be infinite), with hero channel
-    /// `channel` (see the module docs).
+    /// `channel` (see the module docs); `wl`: RGB mode (`None`) or the path's wavelengths.
     pub fn sample_free_flight<S: Sampler + ?Sized>(
         &self,
         o: Vec3,
         d: Vec3,
         t_max: f32,
         channel: usize,
+        wl: Option<&Wavelengths>,
         rng: &mut S,
     ) -> FreeFlight {
         let Some((t0, t1)) = self.clip(o, d, t_max) else {
@@ -122,7 +158,8 @@ impl Heterogeneous {
                 pdf: Rgb::ONE,
             };
         };
-        let inv_maj = 1.0 / self.majorant as f64;
+        let majorant = self.majorant_at(wl);
+        let inv_maj = 1.0 / majorant as f64;
         // contribution and probability of the null collisions so far, per channel, both
         // divided by the hero's (common factors cancel in the integrator's ratios)
         let mut value = Rgb::ONE;
@@ -135,17 +172,17 @@ impl Heterogeneous {
             }
             let t = t as f32;
             let p = o + d * t;
-            let st = self.sigma_t_at(p);
+            let st = self.sigma_t_at(p, wl);
             let u = rng.next_1d();
-            if u * self.majorant < st[channel] {
-                let ss = st * self.albedo.eval(p);
+            if u * majorant < st[channel] {
+                let ss = st * self.albedo.eval_at(p, wl);
                 return FreeFlight::Scatter {
                     t,
                     value: value * ss,
                     pdf: pdf * st,
                 };
             }
-            let sn = st.map(|s| (self.majorant - s).max(0.0));
+            let sn = st.map(|s| (majorant - s).max(0.0));
             let h = sn[channel];
             if h <= 0.0 {
                 // only reachable through rounding (u·σ̄ ≥ σt,h = σ̄)
@@ -161,26 +198,28 @@ impl Heterogeneous {
     }
 
     /// Ratio-tracking estimate of the transmittance along `o + t·d`, 0 ≤ t < `dist` (may be
-    /// infinite).
+    /// infinite); `wl`: RGB mode (`None`) or the path's wavelengths.
     pub fn transmittance<S: Sampler + ?Sized>(
         &self,
         o: Vec3,
         d: Vec3,
         dist: f32,
+        wl: Option<&Wavelengths>,
         rng: &mut S,
     ) -> Rgb {
         let Some((t0, t1)) = self.clip(o, d, dist) else {
             return Rgb::ONE;
         };
-        let inv_maj = 1.0 / self.majorant;
+        let majorant = self.majorant_at(wl);
+        let inv_maj = 1.0 / majorant;
         let mut tr = Rgb::ONE;
         let mut t = t0 as f64;
         for _ in 0..MAX_COLLISIONS {
-            t -= (1.0 - rng.next_1d() as f64).ln() / self.majorant as f64;
+            t -= (1.0 - rng.next_1d() as f64).ln() / majorant as f64;
             if t >= t1 as f64 {
                 return tr;
             }
-            let st = self.sigma_t_at(o + d * t as f32);
+            let st = self.sigma_t_at(o + d * t as f32, wl);
             tr *= st.map(|s| (1.0 - s * inv_maj).max(0.0));
             if tr.is_black() {
                 return Rgb::ZERO;
@@ -286,12 +325,12 @@ mod tests {
         let n = 200_000;
         let (mut s, mut s2, mut pass) = ([0f64; 3], [0f64; 3], 0usize);
         for _ in 0..n {
-            let tr = m.transmittance(o, d, dist, &mut rng);
+            let tr = m.transmittance(o, d, dist, None, &mut rng);
             for c in 0..3 {
                 s[c] += tr[c] as f64;
                 s2[c] += (tr[c] as f64).powi(2);
             }
-            if let FreeFlight::Pass { .. } = m.sample_free_flight(o, d, dist, 1, &mut rng) {
+            if let FreeFlight::Pass { .. } = m.sample_free_flight(o, d, dist, 1, None, &mut rng) {
                 pass += 1;
             }
         }
@@ -309,8 +348,11 @@ mod tests {
         assert!((p - want[1]).abs() < 4.0 * se, "pass {p} vs {}", want[1]);
         // a ray that misses the box, or a segment that ends before it, is not attenuated
         let above = Vec3::new(0.0, 3.0, 0.0);
-        assert_eq!(m.transmittance(above, Vec3::X, 10.0, &mut rng), Rgb::ONE);
-        assert_eq!(m.transmittance(o, d, 0.4, &mut rng), Rgb::ONE);
+        assert_eq!(
+            m.transmittance(above, Vec3::X, 10.0, None, &mut rng),
+            Rgb::ONE
+        );
+        assert_eq!(m.transmittance(o, d, 0.4, None, &mut rng), Rgb::ONE);
     }
 
     /// Small steps far from the ray's origin still advance (distances accumulate in f64): a
@@ -338,7 +380,7 @@ mod tests {
         let o = Vec3::new(0.5, 0.5, 0.0);
         let mut rng = Pcg32::new(3, 3);
         for _ in 0..200 {
-            match m.sample_free_flight(o, Vec3::Z, f32::INFINITY, 0, &mut rng) {
+            match m.sample_free_flight(o, Vec3::Z, f32::INFINITY, 0, None, &mut rng) {
                 FreeFlight::Scatter { t, value, .. } => {
                     assert!(
                         (1.0e5 + 0.25..=1.0e5 + 1.0).contains(&t) && !value.is_black(),
@@ -347,7 +389,10 @@ mod tests {
                 }
                 FreeFlight::Pass { .. } => panic!("passed a box of optical depth 50,000"),
             }
-            assert_eq!(m.transmittance(o, Vec3::Z, 2.0e5, &mut rng), Rgb::ZERO);
+            assert_eq!(
+                m.transmittance(o, Vec3::Z, 2.0e5, None, &mut rng),
+                Rgb::ZERO
+            );
         }
     }
 
@@ -370,7 +415,8 @@ mod tests {
         let n = 400_000;
         let (mut s, mut s2) = (0f64, 0f64);
         for i in 0..n {
-            let ff = m.sample_free_flight(Vec3::ZERO, Vec3::Z, f32::INFINITY, i % 3, &mut rng);
+            let ff =
+                m.sample_free_flight(Vec3::ZERO, Vec3::Z, f32::INFINITY, i % 3, None, &mut rng);
             match ff {
                 FreeFlight::Scatter { t, value, pdf } => {
                     for c in 0..3 {
@@ -411,7 +457,7 @@ mod tests {
         let n = 600_000;
         let mut acc = [[0f64; 3]; 4]; // scatter, scatter², pass, pass²
         for i in 0..n {
-            let ff = m.sample_free_flight(o, d, len, i % 3, &mut rng);
+            let ff = m.sample_free_flight(o, d, len, i % 3, None, &mut rng);
             let w = ff.mis_weight();
             let k = if matches!(ff, FreeFlight::Scatter { .. }) {
                 0
@@ -427,7 +473,7 @@ mod tests {
                 assert!((0.0..len).contains(&t));
             }
         }
-        let tr_h = hom.transmittance(len);
+        let tr_h = hom.transmittance(len, None);
         for c in 0..3 {
             let tr = (-(st[c] as f64) * len as f64).exp();
             assert!((tr_h[c] as f64 - tr).abs() < 1e-6);
@@ -441,5 +487,74 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Spectral mode with an RGB grid whose upsampled spectrum exceeds its largest channel
+    /// (Mitsuba's per-texel s·ρ(rgb/s), s = 2·max: (0.9, 0.1, 0.1) reaches ≈ 1.5 near 650 nm):
+    /// the spectral majorant bounds σt(λ) at every wavelength (it is above the RGB one, which
+    /// would not), and ratio tracking and delta tracking's pass weight (spectral MIS, hero
+    /// uniform) give exp(−σt(λ)·L) at each wavelength, σt(λ) the texel's spectrum (a constant
+    /// grid): 200,000 samples, fixed seed, within 4 standard errors.
+    #[test]
+    fn spectral_grid_transmittance_and_majorant() {
+        use crate::media::spectral::Sigmoid;
+        let rgb = Rgb::new(0.9, 0.1, 0.1);
+        let grid = GridVolume::new([2, 2, 2], vec![rgb; 8], true, Wrap::Clamp, Mat4::IDENTITY);
+        let scale = 1.5;
+        let mut m = Heterogeneous::new(
+            Volume::Grid(std::sync::Arc::new(grid)),
+            Volume::constant(Rgb::splat(0.5)),
+            scale,
+            PhaseFunction::Isotropic,
+        );
+        m.prepare_spectral().unwrap();
+        let spec = Sigmoid::texel(rgb);
+        let maj = m.majorant_at(Some(&Wavelengths([500.0; 3])));
+        assert!(maj > 1.3 * m.majorant, "{maj} vs RGB {}", m.majorant);
+        for i in 0..=470 {
+            assert!(scale * spec.at(360.0 + i as f32) <= maj);
+        }
+        let w = Wavelengths([450.0, 600.0, 650.0]);
+        let sl = spec.eval(&w) * scale;
+        assert!(sl[2] > m.majorant, "{sl:?}");
+        let (o, d, len) = (Vec3::new(0.5, 0.5, 0.0), Vec3::Z, 1.0);
+        let mut rng = Pcg32::new(8, 5);
+        let n = 200_000;
+        let mut acc = [[0f64; 3]; 4];
+        for i in 0..n {
+            let tr = m.transmittance(o, d, len, Some(&w), &mut rng);
+            let ff = m.sample_free_flight(o, d, len, i % 3, Some(&w), &mut rng);
+            let pass = match ff {
+                FreeFlight::Pass { .. } => ff.mis_weight(),
+                FreeFlight::Scatter { .. } => Rgb::ZERO,
+            };
+            for c in 0..3 {
+                acc[0][c] += tr[c] as f64;
+                acc[1][c] += (tr[c] as f64).powi(2);
+                acc[2][c] += pass[c] as f64;
+                acc[3][c] += (pass[c] as f64).powi(2);
+            }
+        }
+        for c in 0..3 {
+            let want = (-(sl[c] as f64) * len as f64).exp();
+            for k in [0, 2] {
+                let mean = acc[k][c] / n as f64;
+                let se = ((acc[k + 1][c] / n as f64 - mean * mean) / n as f64).sqrt();
+                assert!(
+                    (mean - want).abs() < 4.0 * se + 1e-6,
+                    "channel {c} ({}): {mean} vs {want} (se {se})",
+                    if k == 0 {
+                        "ratio tracking"
+                    } else {
+                        "delta tracking"
+                    }
+                );
+            }
+        }
+        // a raw RGB grid has no spectrum
+        let mut raw = GridVolume::new([1, 1, 1], vec![rgb], true, Wrap::Clamp, Mat4::IDENTITY);
+        raw.raw = true;
+        let mut v = Volume::Grid(std::sync::Arc::new(raw));
+        assert!(v.prepare_spectral().unwrap_err().contains("raw"));
     }
 }

@@ -11,11 +11,16 @@
 //! camera is inside it). Media are rendered by the `volpath` integrator
 //! ([`crate::volpath`]) and `volpathmis`; Specula's `path` refuses a scene with media.
 //!
+//! In spectral mode ([`crate::spectral`]) the coefficients are evaluated at the path's
+//! wavelengths ([`spectral`]: how Mitsuba's spectral variants read rgb and float values and
+//! RGB grids), and the integrators' hero channel is a wavelength's index.
+//!
 //! Deviations from Mitsuba: see the plugins' docs for per-parameter notes.
 
 pub mod heterogeneous;
 pub mod homogeneous;
 pub mod phase;
+pub mod spectral;
 pub mod volume;
 
 pub use heterogeneous::Heterogeneous;
@@ -25,7 +30,7 @@ pub use phase::{PhaseFunction, PhaseSample};
 use crate::core::{Result, SceneError};
 use crate::sampler::Sampler;
 use crate::xml::{Node, PropValue};
-use specula_bsdf::Rgb;
+use specula_bsdf::{Rgb, Wavelengths};
 use volume::Volume;
 
 /// A participating medium.
@@ -53,7 +58,8 @@ impl Medium {
     }
     /// Samples where the ray `o + t·d` (unit `d`, t < `t_max`, possibly infinite) first
     /// scatters, with hero channel `channel` (a homogeneous medium takes one sample of `rng`,
-    /// a heterogeneous one as many as delta tracking needs).
+    /// a heterogeneous one as many as delta tracking needs). `wl`: `None` in RGB mode, the
+    /// path's wavelengths in spectral mode (`channel` is then a wavelength's index).
     #[inline]
     pub fn sample_free_flight<S: Sampler + ?Sized>(
         &self,
@@ -61,26 +67,37 @@ impl Medium {
         d: glam::Vec3,
         t_max: f32,
         channel: usize,
+        wl: Option<&Wavelengths>,
         rng: &mut S,
     ) -> FreeFlight {
         match self {
-            Medium::Homogeneous(m) => m.sample_free_flight(o, d, t_max, channel, rng.next_1d()),
-            Medium::Heterogeneous(m) => m.sample_free_flight(o, d, t_max, channel, rng),
+            Medium::Homogeneous(m) => m.sample_free_flight(o, d, t_max, channel, rng.next_1d(), wl),
+            Medium::Heterogeneous(m) => m.sample_free_flight(o, d, t_max, channel, wl, rng),
         }
     }
     /// Transmittance along the segment `o + t·d`, 0 ≤ t < `dist` (possibly infinite): exact
-    /// for a homogeneous medium (no sample taken), a ratio-tracking estimate otherwise.
+    /// for a homogeneous medium (no sample taken), a ratio-tracking estimate otherwise. `wl`:
+    /// as for [`Medium::sample_free_flight`].
     #[inline]
     pub fn transmittance<S: Sampler + ?Sized>(
         &self,
         o: glam::Vec3,
         d: glam::Vec3,
         dist: f32,
+        wl: Option<&Wavelengths>,
         rng: &mut S,
     ) -> Rgb {
         match self {
-            Medium::Homogeneous(m) => m.transmittance(dist),
-            Medium::Heterogeneous(m) => m.transmittance(o, d, dist, rng),
+            Medium::Homogeneous(m) => m.transmittance(dist, wl),
+            Medium::Heterogeneous(m) => m.transmittance(o, d, dist, wl, rng),
+        }
+    }
+    /// Spectral mode: upsamples the medium's coefficients once (see [`spectral`]); fails for
+    /// a `raw` RGB grid, which has no spectrum.
+    pub fn prepare_spectral(&mut self) -> std::result::Result<(), String> {
+        match self {
+            Medium::Homogeneous(m) => m.prepare_spectral(),
+            Medium::Heterogeneous(m) => m.prepare_spectral(),
         }
     }
 }
@@ -155,6 +172,7 @@ fn volume_from_param(n: &Node, name: &str, default: f32) -> Result<Volume> {
                 Ok(Volume::Const {
                     value,
                     bbox: volume::unit_cube_bbox(to_world),
+                    spec: None,
                 })
             }
             "gridvolume" => Ok(Volume::Grid(std::sync::Arc::new(

@@ -3,8 +3,9 @@
 //! - `constvolume`: `value` (float or rgb, default 1) everywhere;
 //! - `gridvolume`: a grid read from Mitsuba's binary `.vol` file — `filename`; `filter_type`
 //!   (`trilinear`, the default, or `nearest`); `wrap_mode` (`clamp`, the default, `repeat` or
-//!   `mirror`); `raw` (bool, default false; accepted — in RGB rendering the values are used as
-//!   they are either way); `to_world` (default identity: the grid fills the unit cube
+//!   `mirror`); `raw` (bool, default false; in RGB rendering the values are used as they are
+//!   either way; in spectral mode a `raw` 3-channel grid is refused, see
+//!   [`super::spectral`]); `to_world` (default identity: the grid fills the unit cube
 //!   [0, 1]³ of its local space, texel centres at (i + ½)/res, as Mitsuba 3).
 //!
 //! The `.vol` format: the bytes `VOL` and version 3; int32 encoding (1 = float32, the only one
@@ -17,13 +18,18 @@
 //! `heterogeneous` medium has any extinction. [`Volume::max`] is the largest value over all
 //! channels (and texels), Mitsuba's `Volume::max`, the majorant of delta tracking.
 //!
+//! In spectral mode ([`crate::spectral`]) both are evaluated at the path's wavelengths
+//! ([`Volume::eval_spectral`]; how RGB values become spectra: [`super::spectral`]), after
+//! [`Volume::prepare_spectral`] has upsampled their values once.
+//!
 //! Deviations from Mitsuba: `use_grid_bbox` is not supported; a grid holding NaN, ±∞ or
 //! negative values is refused when it is read (`GridVolume::from_node`).
 
+use super::spectral::Sigmoid;
 use crate::core::{Result, SceneError};
 use crate::xml::Node;
 use glam::{Mat4, Vec3};
-use specula_bsdf::Rgb;
+use specula_bsdf::{Rgb, Wavelengths};
 use std::path::Path;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -47,6 +53,16 @@ pub struct GridVolume {
     pub max: f32,
     /// The world-space bounding box of `to_world([0, 1]³)` (min, max).
     pub bbox: (Vec3, Vec3),
+    /// Mitsuba's `raw`: no spectral upsampling (a 3-channel raw grid has no spectrum).
+    pub raw: bool,
+    /// Every texel grey (a one-channel grid): its spectra are constant, spectral lookups are
+    /// RGB lookups.
+    pub grey: bool,
+    /// Spectral mode: each texel's spectrum ([`Sigmoid::texel`]), filled by
+    /// [`GridVolume::prepare_spectral`] (empty before; lookups then upsample on the fly).
+    pub spec: Vec<Sigmoid>,
+    /// The largest value of any texel's spectrum over 360…830 nm (= `max` for a grey grid).
+    pub spec_max: f32,
 }
 
 /// The world-space axis-aligned bounding box of `to_world([0, 1]³)`.
@@ -65,7 +81,13 @@ pub fn unit_cube_bbox(to_world: Mat4) -> (Vec3, Vec3) {
 /// colour given directly is a `constvolume` with identity `to_world`, as in Mitsuba 3).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Volume {
-    Const { value: Rgb, bbox: (Vec3, Vec3) },
+    /// `spec`: `value` as a spectrum ([`Sigmoid::unbounded`]), filled by
+    /// [`Volume::prepare_spectral`].
+    Const {
+        value: Rgb,
+        bbox: (Vec3, Vec3),
+        spec: Option<Sigmoid>,
+    },
     Grid(std::sync::Arc<GridVolume>),
 }
 
@@ -75,6 +97,49 @@ impl Volume {
         Volume::Const {
             value,
             bbox: (Vec3::ZERO, Vec3::ONE),
+            spec: None,
+        }
+    }
+    /// Spectral mode: upsamples the values once (the coefficient table must be computable;
+    /// [`crate::scene::Scene::set_spectral`] calls this). Fails for a `raw` RGB grid.
+    pub fn prepare_spectral(&mut self) -> std::result::Result<(), String> {
+        match self {
+            Volume::Const { value, spec, .. } => {
+                *spec = Some(Sigmoid::unbounded(*value));
+                Ok(())
+            }
+            Volume::Grid(g) => GridVolume::prepare_shared(g),
+        }
+    }
+    /// The value at world point `p` at the wavelengths `w` (see [`super::spectral`]).
+    #[inline]
+    pub fn eval_spectral(&self, p: Vec3, w: &Wavelengths) -> Rgb {
+        match self {
+            Volume::Const { spec: Some(s), .. } => s.eval(w),
+            Volume::Const { value, .. } => Sigmoid::unbounded(*value).eval(w),
+            Volume::Grid(g) => g.eval_spectral(p, w),
+        }
+    }
+    /// The value at `p` in RGB mode (`wl` = `None`) or at the wavelengths `wl`.
+    #[inline]
+    pub fn eval_at(&self, p: Vec3, wl: Option<&Wavelengths>) -> Rgb {
+        match wl {
+            None => self.eval(p),
+            Some(w) => self.eval_spectral(p, w),
+        }
+    }
+    /// The largest value at any wavelength in 360…830 nm, anywhere (spectral mode's majorant;
+    /// exact for constants and grey grids, over the texels' spectra for a grid).
+    pub fn spectral_max(&self) -> f32 {
+        match self {
+            Volume::Const { spec: Some(s), .. } => s.max(),
+            Volume::Const { value, .. } => Sigmoid::unbounded(*value).max(),
+            Volume::Grid(g) if g.grey => g.max,
+            Volume::Grid(g) if !g.spec.is_empty() => g.spec_max,
+            Volume::Grid(g) => g
+                .data
+                .iter()
+                .fold(0f32, |m, v| m.max(Sigmoid::texel(*v).max())),
         }
     }
     /// The value at world point `p` (anywhere: a grid applies its wrap mode outside its box).
@@ -175,6 +240,7 @@ impl GridVolume {
         to_world: Mat4,
     ) -> GridVolume {
         let max = data.iter().fold(0f32, |m, v| m.max(v.max_component()));
+        let grey = data.iter().all(|v| v[0] == v[1] && v[1] == v[2]);
         GridVolume {
             res,
             data,
@@ -183,7 +249,38 @@ impl GridVolume {
             to_local: to_world.inverse(),
             max,
             bbox: unit_cube_bbox(to_world),
+            raw: false,
+            grey,
+            spec: Vec::new(),
+            spec_max: max,
         }
+    }
+
+    /// Upsamples every texel ([`Sigmoid::texel`]) for spectral lookups, once (nothing to do
+    /// for a grey grid). Fails for a `raw` RGB grid, which has no spectrum.
+    pub fn prepare_spectral(&mut self) -> std::result::Result<(), String> {
+        if self.grey || !self.spec.is_empty() {
+            return Ok(());
+        }
+        if self.raw {
+            return Err(
+                "a 3-channel gridvolume with raw=true has no spectrum (Mitsuba fails \
+                when it is evaluated in a spectral variant): spectral mode needs raw=false or a \
+                one-channel grid"
+                    .into(),
+            );
+        }
+        self.spec = self.data.iter().map(|v| Sigmoid::texel(*v)).collect();
+        self.spec_max = self.spec.iter().fold(0f32, |m, s| m.max(s.max()));
+        Ok(())
+    }
+
+    /// [`GridVolume::prepare_spectral`] of a shared grid (copied first if shared elsewhere).
+    pub fn prepare_shared(g: &mut std::sync::Arc<GridVolume>) -> std::result::Result<(), String> {
+        if g.grey || !g.spec.is_empty() {
+            return Ok(());
+        }
+        std::sync::Arc::make_mut(g).prepare_spectral()
     }
 
     #[inline]
@@ -203,39 +300,55 @@ impl GridVolume {
         }) as usize
     }
 
+    /// The index of texel (x, y, z) after wrapping.
     #[inline]
-    fn texel(&self, x: i64, y: i64, z: i64) -> Rgb {
+    fn index(&self, x: i64, y: i64, z: i64) -> usize {
         let [rx, ry, rz] = self.res;
         let (x, y, z) = (
             self.wrap_index(x, rx),
             self.wrap_index(y, ry),
             self.wrap_index(z, rz),
         );
-        self.data[(z * ry + y) * rx + x]
+        (z * ry + y) * rx + x
     }
 
-    /// The value at world point `p`.
-    pub fn eval(&self, p: Vec3) -> Rgb {
+    /// Filters the texel values `texel(index)` at world point `p` (nearest or trilinear).
+    #[inline(always)]
+    fn filter(&self, p: Vec3, texel: impl Fn(usize) -> Rgb) -> Rgb {
         let q = self.to_local.transform_point3(p);
         let [rx, ry, rz] = self.res;
         let s = Vec3::new(q.x * rx as f32, q.y * ry as f32, q.z * rz as f32);
         if !self.trilinear {
-            return self.texel(s.x.floor() as i64, s.y.floor() as i64, s.z.floor() as i64);
+            return texel(self.index(s.x.floor() as i64, s.y.floor() as i64, s.z.floor() as i64));
         }
         let s = s - Vec3::splat(0.5);
         let b = s.floor();
         let f = s - b;
         let (x, y, z) = (b.x as i64, b.y as i64, b.z as i64);
+        let t = |x, y, z| texel(self.index(x, y, z));
         let lerp = |a: Rgb, b: Rgb, t: f32| a * (1.0 - t) + b * t;
-        let c00 = lerp(self.texel(x, y, z), self.texel(x + 1, y, z), f.x);
-        let c10 = lerp(self.texel(x, y + 1, z), self.texel(x + 1, y + 1, z), f.x);
-        let c01 = lerp(self.texel(x, y, z + 1), self.texel(x + 1, y, z + 1), f.x);
-        let c11 = lerp(
-            self.texel(x, y + 1, z + 1),
-            self.texel(x + 1, y + 1, z + 1),
-            f.x,
-        );
+        let c00 = lerp(t(x, y, z), t(x + 1, y, z), f.x);
+        let c10 = lerp(t(x, y + 1, z), t(x + 1, y + 1, z), f.x);
+        let c01 = lerp(t(x, y, z + 1), t(x + 1, y, z + 1), f.x);
+        let c11 = lerp(t(x, y + 1, z + 1), t(x + 1, y + 1, z + 1), f.x);
         lerp(lerp(c00, c10, f.y), lerp(c01, c11, f.y), f.z)
+    }
+
+    /// The value at world point `p`.
+    pub fn eval(&self, p: Vec3) -> Rgb {
+        self.filter(p, |i| self.data[i])
+    }
+
+    /// The value at world point `p` at the wavelengths `w`: the texels' spectra at `w`,
+    /// filtered as [`GridVolume::eval`] filters RGB values (Mitsuba's spectral `gridvolume`).
+    pub fn eval_spectral(&self, p: Vec3, w: &Wavelengths) -> Rgb {
+        if self.grey {
+            return self.eval(p);
+        }
+        if self.spec.is_empty() {
+            return self.filter(p, |i| Sigmoid::texel(self.data[i]).eval(w));
+        }
+        self.filter(p, |i| self.spec[i].eval(w))
     }
 
     /// Builds a `<volume type="gridvolume">`; `resolve` finds its file.
@@ -263,7 +376,7 @@ impl GridVolume {
                 )))
             }
         };
-        let _ = n.bool("raw", false)?;
+        let raw = n.bool("raw", false)?;
         let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         n.check_unused(&["filename", "filter_type", "wrap_mode", "raw", "to_world"])?;
         let path = resolve(&file);
@@ -282,7 +395,9 @@ impl GridVolume {
                 data[i].0
             )));
         }
-        Ok(GridVolume::new(res, data, trilinear, wrap, to_world))
+        let mut g = GridVolume::new(res, data, trilinear, wrap, to_world);
+        g.raw = raw;
+        Ok(g)
     }
 }
 

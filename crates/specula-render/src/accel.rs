@@ -563,6 +563,32 @@ fn half_area_f64(lo: Vec3, hi: Vec3) -> f64 {
     e.x * e.y + e.y * e.z + e.z * e.x
 }
 
+/// What the build reads of a primitive, in one cache line: its (padded) box, the box's
+/// centroid (double precision, as the bins are placed) and whether it is a triangle.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct PrimBox {
+    lo: Vec3A,
+    hi: Vec3A,
+    c: DVec3,
+    tri: bool,
+}
+
+/// The smaller of two centroids, per axis (no NaN is ever built: `f64::min` without its NaN
+/// handling).
+#[inline]
+fn dmin(a: DVec3, b: DVec3) -> DVec3 {
+    let m = |x: f64, y: f64| if y < x { y } else { x };
+    DVec3::new(m(a.x, b.x), m(a.y, b.y), m(a.z, b.z))
+}
+
+/// The larger of two centroids, per axis (see [`dmin`]).
+#[inline]
+fn dmax(a: DVec3, b: DVec3) -> DVec3 {
+    let m = |x: f64, y: f64| if y > x { y } else { x };
+    DVec3::new(m(a.x, b.x), m(a.y, b.y), m(a.z, b.z))
+}
+
 /// The binary build tree over `boxes` (finite, one per primitive of `prims`): one primitive
 /// per leaf, root first, parents before children, depth-first, counts filled in.
 ///
@@ -573,12 +599,18 @@ fn half_area_f64(lo: Vec3, hi: Vec3) -> f64 {
 /// range, so the whole build is O(n log n) with an explicit stack (no recursion).
 fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> Vec<BNode> {
     let n = boxes.len();
-    let cent: Vec<DVec3> = boxes
+    let pb: Vec<PrimBox> = boxes
         .iter()
-        .map(|(lo, hi)| (lo.as_dvec3() + hi.as_dvec3()) * 0.5)
+        .zip(prims)
+        .map(|(&(lo, hi), p)| PrimBox {
+            lo: lo.into(),
+            hi: hi.into(),
+            c: (lo.as_dvec3() + hi.as_dvec3()) * 0.5,
+            tri: matches!(p.shape, PrimShape::Triangle(_)),
+        })
         .collect();
     let mut idx: Vec<u32> = (0..n as u32).collect();
-    let mut tree = build_range(&mut idx, boxes, &cent, prims, 0);
+    let mut tree = build_range(&mut idx, None, &pb, 0);
     // children come after their parents: sum up in reverse
     for i in (0..tree.len()).rev() {
         if !tree[i].is_leaf() {
@@ -593,75 +625,103 @@ fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> Vec<BNode> {
 /// Ranges at least this large build their two halves in parallel.
 const PARALLEL_BUILD: usize = 1 << 14;
 
-/// The node over `range` (at least one primitive) and its split: (node, length of the first
-/// part); a single primitive gives a leaf and no split.
+/// The box bounds (`lo..hi`) and centroid bounds (`clo..chi`) of a set of primitives. Boxes
+/// and centroids are finite and never −0 (boxes are padded away from their coordinates), so
+/// these minima and maxima are the same bits whatever order the primitives come in.
+#[derive(Clone, Copy, Debug)]
+struct RangeBounds {
+    lo: Vec3A,
+    hi: Vec3A,
+    clo: DVec3,
+    chi: DVec3,
+}
+
+impl RangeBounds {
+    const EMPTY: RangeBounds = RangeBounds {
+        lo: Vec3A::INFINITY,
+        hi: Vec3A::NEG_INFINITY,
+        clo: DVec3::INFINITY,
+        chi: DVec3::NEG_INFINITY,
+    };
+
+    #[inline]
+    fn add(&mut self, p: &PrimBox) {
+        self.lo = self.lo.min(p.lo);
+        self.hi = self.hi.max(p.hi);
+        self.clo = dmin(self.clo, p.c);
+        self.chi = dmax(self.chi, p.c);
+    }
+
+    fn of(range: &[u32], pb: &[PrimBox]) -> RangeBounds {
+        let mut b = RangeBounds::EMPTY;
+        for &i in range {
+            b.add(&pb[i as usize]);
+        }
+        b
+    }
+}
+
+/// How a node's range is split: the length of the first part and, when the split computed
+/// them on the way, the bounds of both parts.
+type Split = (usize, Option<[RangeBounds; 2]>);
+
+/// The node over `range` (at least one primitive; `bounds` its bounds when known) and its
+/// split; a single primitive gives a leaf and no split.
 fn node_and_split(
     range: &mut [u32],
-    boxes: &[(Vec3, Vec3)],
-    cent: &[DVec3],
-    prims: &[Prim],
+    bounds: Option<RangeBounds>,
+    pb: &[PrimBox],
     depth: u32,
-) -> (BNode, Option<usize>) {
+) -> (BNode, Option<Split>) {
     if range.len() == 1 {
         let p = range[0];
-        let (lo, hi) = boxes[p as usize];
+        let b = &pb[p as usize];
         let leaf = BNode {
-            lo,
-            hi,
+            lo: b.lo.into(),
+            hi: b.hi.into(),
             kids: [p, NO_CHILD],
             count: 1,
-            tris_only: matches!(prims[p as usize].shape, PrimShape::Triangle(_)),
+            tris_only: b.tri,
         };
         return (leaf, None);
     }
-    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    let (mut clo, mut chi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    for &i in range.iter() {
-        let (blo, bhi) = boxes[i as usize];
-        lo = lo.min(blo);
-        hi = hi.max(bhi);
-        let c = cent[i as usize];
-        clo = clo.min(c);
-        chi = chi.max(c);
-    }
+    let RangeBounds { lo, hi, clo, chi } = bounds.unwrap_or_else(|| RangeBounds::of(range, pb));
     // A range of at most LEAF_TRIS triangles becomes one leaf (see `collapse`): how it is
     // split below never matters, so it is halved as it stands.
-    let small = range.len() <= LEAF_TRIS as usize
-        && range
-            .iter()
-            .all(|&i| matches!(prims[i as usize].shape, PrimShape::Triangle(_)));
-    let mid = if small {
-        range.len() / 2
+    let small = range.len() <= LEAF_TRIS as usize && range.iter().all(|&i| pb[i as usize].tri);
+    let split = if small {
+        (range.len() / 2, None)
     } else {
-        split(range, boxes, cent, clo, chi, depth)
+        split(range, pb, clo, chi, depth)
     };
     let node = BNode {
-        lo,
-        hi,
+        lo: lo.into(),
+        hi: hi.into(),
         kids: [NO_CHILD, NO_CHILD],
         count: 0,
         tris_only: true,
     };
-    (node, Some(mid))
+    (node, Some(split))
 }
 
 /// The binary tree over the primitives `range` (root first, then the first part's subtree,
-/// then the second's; child indices relative to this tree). Large ranges build their halves
-/// in parallel; the tree is the same whatever the number of threads.
+/// then the second's; child indices relative to this tree; `bounds` the range's bounds when
+/// known). Large ranges build their halves in parallel; the tree is the same whatever the
+/// number of threads.
 fn build_range(
     range: &mut [u32],
-    boxes: &[(Vec3, Vec3)],
-    cent: &[DVec3],
-    prims: &[Prim],
+    bounds: Option<RangeBounds>,
+    pb: &[PrimBox],
     depth: u32,
 ) -> Vec<BNode> {
     if range.len() >= PARALLEL_BUILD {
-        let (mut node, mid) = node_and_split(range, boxes, cent, prims, depth);
-        let mid = mid.expect("a large range splits");
+        let (mut node, split) = node_and_split(range, bounds, pb, depth);
+        let (mid, parts) = split.expect("a large range splits");
+        let [ba, bb] = parts.map_or([None, None], |[a, b]| [Some(a), Some(b)]);
         let (a, b) = range.split_at_mut(mid);
         let (ta, tb) = rayon::join(
-            || build_range(a, boxes, cent, prims, depth + 1),
-            || build_range(b, boxes, cent, prims, depth + 1),
+            || build_range(a, ba, pb, depth + 1),
+            || build_range(b, bb, pb, depth + 1),
         );
         let mut tree = Vec::with_capacity(1 + ta.len() + tb.len());
         let second = 1 + ta.len() as u32;
@@ -678,33 +738,44 @@ fn build_range(
         return tree;
     }
     let mut tree: Vec<BNode> = Vec::with_capacity(2 * range.len());
-    // (first, end, parent, which child, depth)
-    let mut todo: Vec<(usize, usize, u32, usize, u32)> = vec![(0, range.len(), NO_CHILD, 0, depth)];
-    while let Some((s, e, parent, which, depth)) = todo.pop() {
+    // (first, end, parent, which child, depth, bounds)
+    let mut todo: Vec<(usize, usize, u32, usize, u32, Option<RangeBounds>)> =
+        vec![(0, range.len(), NO_CHILD, 0, depth, bounds)];
+    while let Some((s, e, parent, which, depth, bounds)) = todo.pop() {
         let index = tree.len() as u32;
         if parent != NO_CHILD {
             tree[parent as usize].kids[which] = index;
         }
-        let (node, mid) = node_and_split(&mut range[s..e], boxes, cent, prims, depth);
+        let (node, split) = node_and_split(&mut range[s..e], bounds, pb, depth);
         tree.push(node);
-        if let Some(mid) = mid {
-            todo.push((s + mid, e, index, 1, depth + 1));
-            todo.push((s, s + mid, index, 0, depth + 1));
+        if let Some((mid, parts)) = split {
+            let [ba, bb] = parts.map_or([None, None], |[a, b]| [Some(a), Some(b)]);
+            todo.push((s + mid, e, index, 1, depth + 1, bb));
+            todo.push((s, s + mid, index, 0, depth + 1, ba));
         }
     }
     tree
 }
 
+/// A centroid bin of the SAH build: the bounds of its primitives' boxes and their number.
+#[derive(Clone, Copy)]
+struct Bin {
+    lo: Vec3A,
+    hi: Vec3A,
+    n: u32,
+}
+
+impl Bin {
+    const EMPTY: Bin = Bin {
+        lo: Vec3A::INFINITY,
+        hi: Vec3A::NEG_INFINITY,
+        n: 0,
+    };
+}
+
 /// Reorders `range` (at least 2 primitives, centroid bounds `clo..chi`) into two non-empty
-/// parts and returns the length of the first.
-fn split(
-    range: &mut [u32],
-    boxes: &[(Vec3, Vec3)],
-    cent: &[DVec3],
-    clo: DVec3,
-    chi: DVec3,
-    depth: u32,
-) -> usize {
+/// parts: the length of the first and, for a SAH split, the bounds of both.
+fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) -> Split {
     let ext = chi - clo;
     let axis = if ext.x >= ext.y && ext.x >= ext.z {
         0
@@ -717,34 +788,47 @@ fn split(
         let m = range.len() / 2;
         if ext[axis] > 0.0 {
             range.select_nth_unstable_by(m, |&a, &b| {
-                cent[a as usize][axis].total_cmp(&cent[b as usize][axis])
+                pb[a as usize].c[axis].total_cmp(&pb[b as usize].c[axis])
             });
         }
-        m
+        (m, None)
     };
     // (`ext[axis] <= 0.0` would let a NaN extent through)
     if ext[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || depth >= MAX_SAH_DEPTH {
         return median(range);
     }
+    // (the same quotient whether computed here or per primitive)
+    let scale: [f64; 3] = std::array::from_fn(|a| BINS as f64 / ext[a]);
     let bin_of = |c: f64, a: usize| -> usize {
-        let k = ((c - clo[a]) * (BINS as f64 / ext[a])) as usize;
+        let k = ((c - clo[a]) * scale[a]) as usize;
         k.min(BINS - 1)
     };
     // best (cost, axis, first bin of the right side)
     let mut best = (f64::INFINITY, usize::MAX, 0usize);
     // one pass over the primitives bins them along all three axes
-    let mut bins = [[(Vec3::INFINITY, Vec3::NEG_INFINITY, 0u32); BINS]; 3];
+    let mut bins = [[Bin::EMPTY; BINS]; 3];
     let live: [bool; 3] =
         std::array::from_fn(|a| ext[a].partial_cmp(&0.0) == Some(std::cmp::Ordering::Greater));
-    for &i in range.iter() {
-        let (blo, bhi) = boxes[i as usize];
-        let c = cent[i as usize];
-        for a in 0..3 {
-            if live[a] {
-                let b = &mut bins[a][bin_of(c[a], a)];
-                b.0 = b.0.min(blo);
-                b.1 = b.1.max(bhi);
-                b.2 += 1;
+    let mut add = |a: usize, p: &PrimBox| {
+        let b = &mut bins[a][bin_of(p.c[a], a)];
+        b.lo = b.lo.min(p.lo);
+        b.hi = b.hi.max(p.hi);
+        b.n += 1;
+    };
+    if live == [true; 3] {
+        for &i in range.iter() {
+            let p = &pb[i as usize];
+            add(0, p);
+            add(1, p);
+            add(2, p);
+        }
+    } else {
+        for &i in range.iter() {
+            let p = &pb[i as usize];
+            for (a, &on) in live.iter().enumerate() {
+                if on {
+                    add(a, p);
+                }
             }
         }
     }
@@ -752,28 +836,34 @@ fn split(
         if !live[a] {
             continue;
         }
-        // right-to-left sweep: cost of the right side starting at bin k
+        // right-to-left sweep: cost of the right side starting at bin k (NaN: empty); an
+        // empty bin changes nothing, so its cost is the one after it, bit for bit
         let mut right = [0.0f64; BINS];
-        let (mut rlo, mut rhi, mut rn) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0u32);
+        let (mut rlo, mut rhi, mut rn) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0u32);
+        let mut cost_right = f64::NAN;
         for k in (1..BINS).rev() {
-            rlo = rlo.min(bins[k].0);
-            rhi = rhi.max(bins[k].1);
-            rn += bins[k].2;
-            right[k] = if rn == 0 {
-                f64::NAN
-            } else {
-                half_area_f64(rlo, rhi) * rn as f64
-            };
+            if bins[k].n > 0 {
+                rlo = rlo.min(bins[k].lo);
+                rhi = rhi.max(bins[k].hi);
+                rn += bins[k].n;
+                cost_right = half_area_f64(rlo.into(), rhi.into()) * rn as f64;
+            }
+            right[k] = cost_right;
         }
-        let (mut llo, mut lhi, mut ln) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0u32);
+        let (mut llo, mut lhi, mut ln) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0u32);
         for k in 1..BINS {
-            llo = llo.min(bins[k - 1].0);
-            lhi = lhi.max(bins[k - 1].1);
-            ln += bins[k - 1].2;
+            // after an empty bin both sides are those of the boundary before it: the same
+            // cost, which cannot be strictly better (small nodes leave most bins empty)
+            if bins[k - 1].n == 0 {
+                continue;
+            }
+            llo = llo.min(bins[k - 1].lo);
+            lhi = lhi.max(bins[k - 1].hi);
+            ln += bins[k - 1].n;
             if ln == 0 || right[k].is_nan() {
                 continue;
             }
-            let cost = half_area_f64(llo, lhi) * ln as f64 + right[k];
+            let cost = half_area_f64(llo.into(), lhi.into()) * ln as f64 + right[k];
             if cost < best.0 {
                 best = (cost, a, k);
             }
@@ -783,19 +873,26 @@ fn split(
         return median(range);
     }
     let (_, a, k) = best;
-    // partition: bins below k first
+    // partition: bins below k first; the bounds of both parts on the way (their nodes need
+    // them: one pass over the primitives fewer per level)
     let mut m = 0;
+    let mut parts = [RangeBounds::EMPTY; 2];
     for j in 0..range.len() {
-        if bin_of(cent[range[j] as usize][a], a) < k {
+        let i = range[j] as usize;
+        let p = &pb[i];
+        if bin_of(p.c[a], a) < k {
+            parts[0].add(p);
             range.swap(m, j);
             m += 1;
+        } else {
+            parts[1].add(p);
         }
     }
     if m == 0 || m == range.len() {
         // cannot happen (both sides counted non-empty), but never build an endless loop
         return median(range);
     }
-    m
+    (m, Some(parts))
 }
 
 /// Per-ray constants of the watertight ray/triangle test.
@@ -2002,6 +2099,238 @@ mod tests {
         }
         fn in_box(&mut self, lo: Vec3, hi: Vec3) -> Vec3 {
             lo + (hi - lo) * Vec3::new(self.f(), self.f(), self.f())
+        }
+    }
+
+    /// The binary build as it was before the start-up work (bounds recomputed per node, a
+    /// box and a centroid array, every bin swept), sequential: the reference that the
+    /// faster build must reproduce node for node.
+    fn reference_build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> Vec<BNode> {
+        let cent: Vec<DVec3> = boxes
+            .iter()
+            .map(|(lo, hi)| (lo.as_dvec3() + hi.as_dvec3()) * 0.5)
+            .collect();
+        let tri = |i: u32| matches!(prims[i as usize].shape, PrimShape::Triangle(_));
+        let mut range: Vec<u32> = (0..boxes.len() as u32).collect();
+        let mut tree: Vec<BNode> = vec![];
+        let mut todo = vec![(0usize, range.len(), NO_CHILD, 0usize, 0u32)];
+        while let Some((s, e, parent, which, depth)) = todo.pop() {
+            let index = tree.len() as u32;
+            if parent != NO_CHILD {
+                tree[parent as usize].kids[which] = index;
+            }
+            let r = &mut range[s..e];
+            if r.len() == 1 {
+                let (lo, hi) = boxes[r[0] as usize];
+                tree.push(BNode {
+                    lo,
+                    hi,
+                    kids: [r[0], NO_CHILD],
+                    count: 1,
+                    tris_only: tri(r[0]),
+                });
+                continue;
+            }
+            let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            let (mut clo, mut chi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+            for &i in r.iter() {
+                lo = lo.min(boxes[i as usize].0);
+                hi = hi.max(boxes[i as usize].1);
+                clo = clo.min(cent[i as usize]);
+                chi = chi.max(cent[i as usize]);
+            }
+            let ext = chi - clo;
+            let axis = if ext.x >= ext.y && ext.x >= ext.z {
+                0
+            } else if ext.y >= ext.z {
+                1
+            } else {
+                2
+            };
+            let median = |r: &mut [u32]| {
+                let m = r.len() / 2;
+                if ext[axis] > 0.0 {
+                    r.select_nth_unstable_by(m, |&a, &b| {
+                        cent[a as usize][axis].total_cmp(&cent[b as usize][axis])
+                    });
+                }
+                m
+            };
+            let mid = if r.len() <= LEAF_TRIS as usize && r.iter().all(|&i| tri(i)) {
+                r.len() / 2
+            } else if ext[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+                || depth >= MAX_SAH_DEPTH
+            {
+                median(r)
+            } else {
+                let bin_of = |c: f64, a: usize| {
+                    (((c - clo[a]) * (BINS as f64 / ext[a])) as usize).min(BINS - 1)
+                };
+                let mut bins = [[(Vec3::INFINITY, Vec3::NEG_INFINITY, 0u32); BINS]; 3];
+                let live: [bool; 3] = std::array::from_fn(|a| ext[a] > 0.0);
+                for &i in r.iter() {
+                    for a in (0..3).filter(|&a| live[a]) {
+                        let b = &mut bins[a][bin_of(cent[i as usize][a], a)];
+                        b.0 = b.0.min(boxes[i as usize].0);
+                        b.1 = b.1.max(boxes[i as usize].1);
+                        b.2 += 1;
+                    }
+                }
+                let mut best = (f64::INFINITY, usize::MAX, 0usize);
+                for a in (0..3).filter(|&a| live[a]) {
+                    let mut right = [0.0f64; BINS];
+                    let (mut rlo, mut rhi, mut rn) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0);
+                    for k in (1..BINS).rev() {
+                        rlo = rlo.min(bins[a][k].0);
+                        rhi = rhi.max(bins[a][k].1);
+                        rn += bins[a][k].2;
+                        right[k] = if rn == 0 {
+                            f64::NAN
+                        } else {
+                            half_area_f64(rlo, rhi) * rn as f64
+                        };
+                    }
+                    let (mut llo, mut lhi, mut ln) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0);
+                    for k in 1..BINS {
+                        llo = llo.min(bins[a][k - 1].0);
+                        lhi = lhi.max(bins[a][k - 1].1);
+                        ln += bins[a][k - 1].2;
+                        if ln == 0 || right[k].is_nan() {
+                            continue;
+                        }
+                        let cost = half_area_f64(llo, lhi) * ln as f64 + right[k];
+                        if cost < best.0 {
+                            best = (cost, a, k);
+                        }
+                    }
+                }
+                if best.1 == usize::MAX {
+                    median(r)
+                } else {
+                    let (_, a, k) = best;
+                    let mut m = 0;
+                    for j in 0..r.len() {
+                        if bin_of(cent[r[j] as usize][a], a) < k {
+                            r.swap(m, j);
+                            m += 1;
+                        }
+                    }
+                    if m == 0 || m == r.len() {
+                        median(r)
+                    } else {
+                        m
+                    }
+                }
+            };
+            tree.push(BNode {
+                lo,
+                hi,
+                kids: [NO_CHILD, NO_CHILD],
+                count: 0,
+                tris_only: true,
+            });
+            todo.push((s + mid, e, index, 1, depth + 1));
+            todo.push((s, s + mid, index, 0, depth + 1));
+        }
+        for i in (0..tree.len()).rev() {
+            if !tree[i].is_leaf() {
+                let [a, b] = tree[i].kids.map(|k| k as usize);
+                tree[i].count = tree[a].count + tree[b].count;
+                tree[i].tris_only = tree[a].tris_only && tree[b].tris_only;
+            }
+        }
+        tree
+    }
+
+    /// The build gives the reference build's tree, node for node and bit for bit: random
+    /// triangles (more than one parallel split's worth), clusters of coincident centroids
+    /// (median splits), flat geometry (a dead axis), spheres among them, tiny inputs.
+    #[test]
+    fn build_matches_the_reference_build() {
+        let mut rng = Rng(3);
+        let mut cases: Vec<Vec<PrimShape>> = vec![];
+        let tri = |rng: &mut Rng, c: Vec3, s: f32| {
+            PrimShape::Triangle([0; 3].map(|_| c + rng.in_box(Vec3::splat(-s), Vec3::splat(s))))
+        };
+        // uniform soup, large
+        cases.push(
+            (0..40_000)
+                .map(|_| {
+                    let c = rng.in_box(Vec3::splat(-10.0), Vec3::splat(10.0));
+                    tri(&mut rng, c, 0.3)
+                })
+                .collect(),
+        );
+        // clusters: many primitives on few centres, and flat in z
+        cases.push(
+            (0..3000)
+                .map(|i| {
+                    let c = Vec3::new((i % 7) as f32, (i % 3) as f32 * 0.5, 0.0);
+                    if i % 50 == 0 {
+                        PrimShape::Sphere {
+                            center: c,
+                            radius: 0.25,
+                        }
+                    } else {
+                        let v = [c, c + Vec3::X * 0.1, c + Vec3::Y * 0.1];
+                        PrimShape::Triangle(v)
+                    }
+                })
+                .collect(),
+        );
+        // geometric spacing (deep SAH), and tiny inputs
+        cases.push(
+            (0..400)
+                .map(|i| {
+                    let x = 1.05f32.powi(i);
+                    PrimShape::Triangle([
+                        Vec3::new(x, 0.0, 0.0),
+                        Vec3::new(x, 1.0, 0.0),
+                        Vec3::new(x, 0.0, 1.0),
+                    ])
+                })
+                .collect(),
+        );
+        for n in [1, 2, 3, 8, 9, 17] {
+            cases.push((0..n).map(|_| tri(&mut rng, Vec3::ZERO, 2.0)).collect());
+        }
+        for shapes in cases {
+            let prims: Vec<Prim> = shapes
+                .iter()
+                .enumerate()
+                .map(|(i, &shape)| Prim {
+                    shape,
+                    geom: 0,
+                    index: i as u32,
+                })
+                .collect();
+            let boxes: Vec<(Vec3, Vec3)> = shapes
+                .iter()
+                .map(|s| match *s {
+                    PrimShape::Triangle(v) => {
+                        let (lo, hi) = (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2]));
+                        let pad = Vec3::splat(lo.abs().max(hi.abs()).max_element() * 4e-7 + 1e-30);
+                        (lo - pad, hi + pad)
+                    }
+                    PrimShape::Sphere { center, radius } => {
+                        (center - Vec3::splat(radius), center + Vec3::splat(radius))
+                    }
+                    _ => unreachable!(),
+                })
+                .collect();
+            let want = reference_build_binary(&boxes, &prims);
+            let got = build_binary(&boxes, &prims);
+            assert_eq!(got.len(), want.len(), "{} primitives", prims.len());
+            for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                assert_eq!(
+                    (bits(g.lo), bits(g.hi), g.kids, g.count, g.tris_only),
+                    (bits(w.lo), bits(w.hi), w.kids, w.count, w.tris_only),
+                    "node {i} of {} ({} primitives)",
+                    want.len(),
+                    prims.len()
+                );
+            }
         }
     }
 

@@ -23,6 +23,7 @@ pub mod integrator;
 pub mod media;
 pub mod mesh_io;
 pub mod metrics;
+pub mod prefetch;
 pub mod render;
 pub mod sampler;
 pub mod scene;

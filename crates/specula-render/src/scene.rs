@@ -305,7 +305,9 @@ impl Scene {
         drop(parse);
         opts.apply(&mut root)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        prefetch_bsdf_tables(&root);
         let _images = crate::image_io::prefetch(crate::texture::scene_images(&root, &base));
+        let _meshes = crate::prefetch::prefetch_meshes(mesh_files(&root, &base));
         Builder {
             base,
             ids: HashMap::new(),
@@ -467,6 +469,134 @@ fn find_and_build_bsdf(
     }
 }
 
+/// The plain parameters of a `<bsdf>` node (numbers, strings, colours; not its nested
+/// elements) as material-library [`Props`]; `filename`s resolve through `resolve`.
+fn bsdf_plain_props(n: &Node, resolve: impl Fn(&Loc, &str) -> PathBuf) -> Result<Props> {
+    let mut props = Props::new(n.plugin_type.clone(), loc_str(&n.loc));
+    for p in &n.props {
+        let v = match &p.value {
+            PropValue::Float(v) => Value::Float(*v),
+            PropValue::Int(v) => Value::Int(*v),
+            PropValue::Bool(v) => Value::Bool(*v),
+            // data files of measured materials resolve relative to the scene file
+            PropValue::Str(v) if p.name == "filename" => {
+                Value::Str(resolve(&p.loc, v).to_string_lossy().into_owned())
+            }
+            PropValue::Str(v) => Value::Str(v.clone()),
+            PropValue::Rgb(v) => Value::Rgb(Rgb(*v)),
+            // a constant stays a number; anything else keeps its RGB value the way
+            // Mitsuba's plugins read it (IORs and roughness unbounded, the rest as
+            // reflectances) for RGB mode, and the spectrum itself for spectral mode
+            PropValue::Spectrum(s) => match s.as_constant() {
+                Some(v) => Value::Float(v),
+                None => {
+                    let usage = match p.name.as_str() {
+                        "eta" | "k" | "alpha" | "alpha_u" | "alpha_v" => Usage::Unbounded,
+                        _ => Usage::Reflectance,
+                    };
+                    let rgb = s.to_rgb(usage).map_err(|why| {
+                        SceneError::new(
+                            Some(p.loc.clone()),
+                            format!("parameter '{}' of bsdf '{}': {why}", p.name, n.plugin_type),
+                        )
+                    })?;
+                    Value::Spectral {
+                        rgb: Rgb(rgb),
+                        curve: s.curve(),
+                    }
+                }
+            },
+            other => {
+                return Err(SceneError::new(
+                    Some(p.loc.clone()),
+                    format!(
+                        "parameter '{}' of bsdf '{}' cannot be a {other:?}",
+                        p.name, n.plugin_type
+                    ),
+                ))
+            }
+        };
+        props.set(&p.name, v, loc_str(&p.loc)).map_err(bsdf_err)?;
+    }
+    Ok(props)
+}
+
+/// Starts building, on a thread of its own, the BSDFs whose construction precomputes tables
+/// (`roughplastic`'s coat transmittance and internal reflectance: tens of milliseconds each)
+/// from their plain parameters, which alone decide the tables (nested textures do not). The
+/// tables are cached process-wide, so the loader's own build of each such BSDF, in document
+/// order, takes them from the cache or waits for them instead of computing them after the
+/// images and meshes before it; meanwhile they are computed on cores the loader leaves idle
+/// (while it waits for an image, or builds the BVH). The results are the same bits: the
+/// tables depend only on those parameters. Errors are left to the loader's build.
+fn prefetch_bsdf_tables(root: &Node) {
+    fn walk(n: &Node, out: &mut Vec<Props>) {
+        if n.tag == "bsdf" && n.plugin_type == "roughplastic" {
+            if let Ok(p) = bsdf_plain_props(n, |_, v| PathBuf::from(v)) {
+                out.push(p);
+            }
+        }
+        for c in &n.children {
+            walk(c, out);
+        }
+    }
+    let mut props = vec![];
+    walk(root, &mut props);
+    if props.is_empty() {
+        return;
+    }
+    let spawned = std::thread::Builder::new()
+        .name("specula-bsdf-tables".into())
+        .spawn(move || {
+            for p in props {
+                let _ = build_bsdf(p);
+            }
+        });
+    // (without a thread the loader computes the tables itself)
+    drop(spawned);
+}
+
+/// [`Builder::resolve_from`] with the main scene's directory `base`.
+fn resolve_file(base: &Path, loc: &Loc, name: &str) -> PathBuf {
+    let p = Path::new(name);
+    if p.is_absolute() {
+        return p.to_path_buf();
+    }
+    if let Some(dir) = Path::new(&loc.file).parent() {
+        let candidate = dir.join(p);
+        if candidate.exists() {
+            return candidate;
+        }
+    }
+    base.join(p)
+}
+
+/// The mesh files of the scene's `obj`, `ply` and `serialized` shapes (wherever nested), as
+/// [`crate::prefetch`] keys them: what the loader will read, started ahead of it. A shape
+/// whose parameters are not plain (the loader will report it) is left out.
+fn mesh_files(root: &Node, base: &Path) -> Vec<crate::prefetch::MeshKey> {
+    fn walk(n: &Node, base: &Path, out: &mut Vec<crate::prefetch::MeshKey>) {
+        if n.tag == "shape" && matches!(n.plugin_type.as_str(), "obj" | "ply" | "serialized") {
+            let prop = |name: &str| n.props.iter().find(|p| p.name == name).map(|p| &p.value);
+            let index = match (n.plugin_type.as_str(), prop("shape_index")) {
+                ("serialized", Some(PropValue::Int(i))) => Some(*i),
+                ("serialized", Some(_)) => None,
+                _ => Some(0),
+            };
+            if let (Some(PropValue::Str(file)), Some(index)) = (prop("filename"), index) {
+                let path = resolve_file(base, &n.loc, file);
+                out.push((n.plugin_type.clone(), path, index));
+            }
+        }
+        for c in &n.children {
+            walk(c, base, out);
+        }
+    }
+    let mut out = vec![];
+    walk(root, base, &mut out);
+    out
+}
+
 fn loc_str(l: &Loc) -> Option<String> {
     Some(l.to_string())
 }
@@ -506,17 +636,7 @@ impl Builder {
     /// that declares it (an `<include>`d file), then to the main scene's directory — like
     /// Mitsuba's file resolver.
     fn resolve_from(&self, loc: &Loc, name: &str) -> PathBuf {
-        let p = Path::new(name);
-        if p.is_absolute() {
-            return p.to_path_buf();
-        }
-        if let Some(dir) = Path::new(&loc.file).parent() {
-            let candidate = dir.join(p);
-            if candidate.exists() {
-                return candidate;
-            }
-        }
-        self.base.join(p)
+        resolve_file(&self.base, loc, name)
     }
 
     fn build(mut self, root: &Node) -> Result<Scene> {
@@ -813,55 +933,7 @@ impl Builder {
     /// Convert an XML BSDF node into the material library's parameters and build it.
     fn bsdf(&self, n: &Node) -> Result<Bsdf> {
         let _t = crate::timings::span(crate::timings::Phase::Bsdfs);
-        let mut props = Props::new(n.plugin_type.clone(), loc_str(&n.loc));
-        for p in &n.props {
-            let v = match &p.value {
-                PropValue::Float(v) => Value::Float(*v),
-                PropValue::Int(v) => Value::Int(*v),
-                PropValue::Bool(v) => Value::Bool(*v),
-                // data files of measured materials resolve relative to the scene file
-                PropValue::Str(v) if p.name == "filename" => {
-                    Value::Str(self.resolve_from(&p.loc, v).to_string_lossy().into_owned())
-                }
-                PropValue::Str(v) => Value::Str(v.clone()),
-                PropValue::Rgb(v) => Value::Rgb(Rgb(*v)),
-                // a constant stays a number; anything else keeps its RGB value the way
-                // Mitsuba's plugins read it (IORs and roughness unbounded, the rest as
-                // reflectances) for RGB mode, and the spectrum itself for spectral mode
-                PropValue::Spectrum(s) => match s.as_constant() {
-                    Some(v) => Value::Float(v),
-                    None => {
-                        let usage = match p.name.as_str() {
-                            "eta" | "k" | "alpha" | "alpha_u" | "alpha_v" => Usage::Unbounded,
-                            _ => Usage::Reflectance,
-                        };
-                        let rgb = s.to_rgb(usage).map_err(|why| {
-                            SceneError::new(
-                                Some(p.loc.clone()),
-                                format!(
-                                    "parameter '{}' of bsdf '{}': {why}",
-                                    p.name, n.plugin_type
-                                ),
-                            )
-                        })?;
-                        Value::Spectral {
-                            rgb: Rgb(rgb),
-                            curve: s.curve(),
-                        }
-                    }
-                },
-                other => {
-                    return Err(SceneError::new(
-                        Some(p.loc.clone()),
-                        format!(
-                            "parameter '{}' of bsdf '{}' cannot be a {other:?}",
-                            p.name, n.plugin_type
-                        ),
-                    ))
-                }
-            };
-            props.set(&p.name, v, loc_str(&p.loc)).map_err(bsdf_err)?;
-        }
+        let mut props = bsdf_plain_props(n, |loc, v| self.resolve_from(loc, v))?;
         n.mark_all_used();
         for c in &n.children {
             match c.tag.as_str() {
@@ -1076,11 +1148,12 @@ impl Builder {
                 let file = n.string_opt("filename")?.ok_or_else(|| SceneError::new(Some(n.loc.clone()), format!("{} needs 'filename'", n.plugin_type)))?;
                 let face_normals = n.bool("face_normals", false)?;
                 let path = self.resolve_from(&n.loc, &file);
-let mut data = match n.plugin_type.as_str() {
-                    "obj" => crate::mesh_io::load_obj(&path),
-                    "ply" => crate::mesh_io::load_ply(&path),
-                    _ => crate::serialized::load_serialized(&path, n.int("shape_index", 0)?),
-                }
+let shape_index = match n.plugin_type.as_str() {
+                    "serialized" => n.int("shape_index", 0)?,
+                    _ => 0,
+                };
+                // (from the prefetch started with the scene, when it holds the file)
+                let mut data = crate::prefetch::take_mesh(&n.plugin_type, &path, shape_index)
                 .map_err(|e| SceneError::new(Some(n.loc.clone()), e.to_string()))?;
                 // Mitsuba's OBJ loader flips v unless told not to (load_obj flips, as the default)
                 if n.plugin_type == "obj" && !n.bool("flip_tex_coords", true)? {

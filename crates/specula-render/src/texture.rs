@@ -219,6 +219,48 @@ fn compact<T: Copy>(
     (width, height)
 }
 
+/// Per-channel histograms of interleaved bytes (`channels` per pixel, 1 … 3), counted in
+/// parallel over parts of the data (integer counts: the same whatever the split).
+fn byte_histograms(data: &[u8], channels: usize) -> Vec<[u64; 256]> {
+    use rayon::prelude::*;
+    let count = |part: &[u8]| {
+        let mut hist = vec![[0u64; 256]; channels];
+        if channels == 3 {
+            let [h0, h1, h2] = &mut hist[..] else {
+                unreachable!()
+            };
+            for px in part.chunks_exact(3) {
+                h0[px[0] as usize] += 1;
+                h1[px[1] as usize] += 1;
+                h2[px[2] as usize] += 1;
+            }
+        } else {
+            for px in part.chunks_exact(channels) {
+                for (c, &b) in px.iter().enumerate() {
+                    hist[c][b as usize] += 1;
+                }
+            }
+        }
+        hist
+    };
+    // parts of whole pixels, large enough to be worth a task
+    let part = channels * (1 << 18);
+    if data.len() <= part {
+        return count(data);
+    }
+    data.par_chunks(part).map(count).reduce(
+        || vec![[0u64; 256]; channels],
+        |mut a, b| {
+            for (ha, hb) in a.iter_mut().zip(&b) {
+                for (x, y) in ha.iter_mut().zip(hb) {
+                    *x += y;
+                }
+            }
+            a
+        },
+    )
+}
+
 /// Mitsuba's `bitmap` texture: 1- or 3-channel linear data (RGBA loses its alpha, grey+alpha
 /// its alpha).
 #[derive(Clone, Debug)]
@@ -232,7 +274,8 @@ pub struct Bitmap {
     pub filter: FilterType,
     pub wrap: WrapMode,
     pub to_uv: Mat3,
-    mean: Rgb,
+    /// [`Self::compute_mean`], once asked for.
+    mean: std::sync::OnceLock<Rgb>,
 }
 
 impl Bitmap {
@@ -332,35 +375,6 @@ impl Bitmap {
         wrap: WrapMode,
         to_uv: Mat3,
     ) -> Self {
-        let n = (width * height) as f64;
-        let mut sum = [0f64; 3];
-        match &texels {
-            Texels::F32(data) => {
-                for px in data.chunks_exact(channels) {
-                    for (c, s) in sum.iter_mut().enumerate() {
-                        *s += px[c.min(channels - 1)] as f64;
-                    }
-                }
-            }
-            Texels::U8(data, table) => {
-                // a histogram per channel, then the sum of its values (exact in f64)
-                let mut hist = vec![[0u64; 256]; channels];
-                for px in data.chunks_exact(channels) {
-                    for (c, &b) in px.iter().enumerate() {
-                        hist[c][b as usize] += 1;
-                    }
-                }
-                for (c, s) in sum.iter_mut().enumerate() {
-                    let h = &hist[c.min(channels - 1)];
-                    *s = (0..256).map(|k| h[k] as f64 * table[k] as f64).sum();
-                }
-            }
-        }
-        let mean = Rgb::new(
-            (sum[0] / n) as f32,
-            (sum[1] / n) as f32,
-            (sum[2] / n) as f32,
-        );
         Bitmap {
             width,
             height,
@@ -369,8 +383,40 @@ impl Bitmap {
             filter,
             wrap,
             to_uv,
-            mean,
+            mean: std::sync::OnceLock::new(),
         }
+    }
+
+    /// Per-channel average of the linear data, computed on first use (only some materials
+    /// ask for it, e.g. plastic's sampling weights; a normal or bump map never does).
+    fn compute_mean(&self) -> Rgb {
+        let (width, height, channels) = (self.width, self.height, self.channels);
+        let n = (width * height) as f64;
+        let mut sum = [0f64; 3];
+        match &self.texels {
+            Texels::F32(data) => {
+                for px in data.chunks_exact(channels) {
+                    for (c, s) in sum.iter_mut().enumerate() {
+                        *s += px[c.min(channels - 1)] as f64;
+                    }
+                }
+            }
+            Texels::U8(data, table) => {
+                // a histogram per channel, then the sum of its values (exact in f64); the
+                // counts are integers, so summing the histograms of parts in parallel gives
+                // the same result
+                let hist = byte_histograms(data, channels);
+                for (c, s) in sum.iter_mut().enumerate() {
+                    let h = &hist[c.min(channels - 1)];
+                    *s = (0..256).map(|k| h[k] as f64 * table[k] as f64).sum();
+                }
+            }
+        }
+        Rgb::new(
+            (sum[0] / n) as f32,
+            (sum[1] / n) as f32,
+            (sum[2] / n) as f32,
+        )
     }
 
     #[inline]
@@ -446,7 +492,7 @@ impl Texture for Bitmap {
 
     /// Per-channel average of the linear data (its luminance is Mitsuba's `mean()`).
     fn mean(&self) -> Rgb {
-        self.mean
+        *self.mean.get_or_init(|| self.compute_mean())
     }
 
     fn eval_1_grad(&self, sp: &ShadingPoint) -> Option<Vec2> {
@@ -877,6 +923,26 @@ mod tests {
         ));
     }
 
+    /// The histograms counted in parallel parts equal one sequential count (images larger
+    /// than a part, and a part boundary inside the data).
+    #[test]
+    fn parallel_byte_histograms_are_exact() {
+        let mut seed = 11u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 24) as u8
+        };
+        for channels in [1usize, 3] {
+            let n = channels * ((1 << 19) + 12_345);
+            let data: Vec<u8> = (0..n).map(|_| next()).collect();
+            let mut want = vec![[0u64; 256]; channels];
+            for (i, &b) in data.iter().enumerate() {
+                want[i % channels][b as usize] += 1;
+            }
+            assert_eq!(byte_histograms(&data, channels), want, "{channels}");
+        }
+    }
+
     /// 8-bit images keep their bytes: every lookup, gradient and mean equals that of the
     /// same image converted to f32 up front (the way Bitmap::from_image stores it).
     #[test]
@@ -909,7 +975,7 @@ mod tests {
                             (a.width, a.height, a.channels),
                             (b.width, b.height, b.channels)
                         );
-                        assert_eq!(a.mean, b.mean, "{w}×{h}×{c}");
+                        assert_eq!(a.mean(), b.mean(), "{w}×{h}×{c}");
                         for i in 0..50 {
                             let uv = Vec2::new(i as f32 * 0.071 - 0.9, i as f32 * 0.043 - 0.4);
                             assert_eq!(a.lookup(uv), b.lookup(uv), "{w}×{h}×{c} {uv}");

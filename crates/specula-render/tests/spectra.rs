@@ -105,7 +105,7 @@ fn scene_builder_reads_each_use_as_mitsuba() {
         (0..3).all(|k| (a[k] as f64 - b[k]).abs() <= 1e-5 * b[k].abs() + 1e-7)
     };
     let constant = |p: &SpectrumParam| match p {
-        SpectrumParam::Const(c) => c.0,
+        SpectrumParam::Const(c) | SpectrumParam::Spectral { rgb: c, .. } => c.0,
         _ => panic!("not a constant"),
     };
     let Bsdf::Diffuse(d) = &s.bsdfs[s.shape_bsdf[0] as usize] else {
@@ -132,12 +132,17 @@ fn scene_builder_reads_each_use_as_mitsuba() {
     );
     assert_eq!(constant(&c.k), [0.5; 3]);
     let light = s.shape_light[2].expect("an emitter") as usize;
-    let Light::Area {
-        radiance: AreaRadiance::Rgb(radiance),
-        ..
-    } = &s.lights[light]
-    else {
-        panic!("not an area light of constant radiance")
+    // a <spectrum> radiance keeps its RGB conversion (what RGB mode emits) beside the curve
+    let radiance = match &s.lights[light] {
+        Light::Area {
+            radiance: AreaRadiance::Rgb(r),
+            ..
+        }
+        | Light::Area {
+            radiance: AreaRadiance::Spectral { rgb: r, .. },
+            ..
+        } => r,
+        _ => panic!("not an area light of constant radiance"),
     };
     assert!(
         close(

@@ -258,6 +258,20 @@ mod tests {
     use crate::scene::Scene;
     use std::sync::atomic::AtomicBool;
 
+    /// Renders `s` with `spp` samples per pixel and seed `seed` on all threads.
+    fn render_at(s: &Scene, spp: u32, seed: u64) -> crate::render::RenderOutput {
+        render(
+            s,
+            &RenderOptions {
+                spp,
+                seed,
+                threads: 0,
+            },
+            &AtomicBool::new(false),
+            &|_, _| {},
+        )
+    }
+
     fn scene(body: &str) -> Scene {
         scene_sampled(body, "independent")
     }
@@ -291,16 +305,7 @@ mod tests {
             <shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="1, 1, 1"/></bsdf></shape>"#,
         );
         s.set_spectral(true).unwrap();
-        let out = render(
-            &s,
-            &RenderOptions {
-                spp: 256,
-                seed: 1,
-                threads: 0,
-            },
-            &AtomicBool::new(false),
-            &|_, _| {},
-        );
+        let out = render_at(&s, 256, 1);
         let n = (out.width * out.height) as f64;
         for k in 0..3 {
             let mean: f64 = out.rgb.chunks(3).map(|p| p[k] as f64).sum::<f64>() / n;
@@ -324,16 +329,7 @@ mod tests {
             <emitter type="constant"><rgb name="radiance" value="0.8, 0.4, 0.2"/></emitter>"#,
         );
         s.set_spectral(true).unwrap();
-        let out = render(
-            &s,
-            &RenderOptions {
-                spp: 512,
-                seed: 2,
-                threads: 0,
-            },
-            &AtomicBool::new(false),
-            &|_, _| {},
-        );
+        let out = render_at(&s, 512, 2);
         let n = (out.width * out.height) as f64;
         let want = [0.8, 0.4, 0.2];
         for k in 0..3 {
@@ -368,27 +364,9 @@ mod tests {
             r#"<integrator type="depth"/>
             <shape type="rectangle"><transform name="to_world"><scale value="10"/></transform></shape>"#,
         );
-        let rgb_mode = render(
-            &s,
-            &RenderOptions {
-                spp: 4,
-                seed: 1,
-                threads: 0,
-            },
-            &AtomicBool::new(false),
-            &|_, _| {},
-        );
+        let rgb_mode = render_at(&s, 4, 1);
         s.set_spectral(true).unwrap();
-        let out = render(
-            &s,
-            &RenderOptions {
-                spp: 256,
-                seed: 1,
-                threads: 0,
-            },
-            &AtomicBool::new(false),
-            &|_, _| {},
-        );
+        let out = render_at(&s, 256, 1);
         let t = channel_means(&rgb_mode.rgb, 3, |_| true);
         let m = channel_means(&out.rgb, 3, |_| true);
         let white_e = [1.204_884, 0.948_228, 0.909_267];
@@ -416,14 +394,9 @@ mod tests {
         // (a sampler that keeps the camera rays of RGB mode: the wavelengths come from a
         // dimension of their own)
         let mut s = scene_sampled(xml, "stratified");
-        let opts = RenderOptions {
-            spp: 512,
-            seed: 3,
-            threads: 0,
-        };
-        let rgb_mode = render(&s, &opts, &AtomicBool::new(false), &|_, _| {});
+        let rgb_mode = render_at(&s, 512, 3);
         s.set_spectral(true).unwrap();
-        let out = render(&s, &opts, &AtomicBool::new(false), &|_, _| {});
+        let out = render_at(&s, 512, 3);
         let names: Vec<&str> = out.aovs.iter().map(|(n, _)| n.as_str()).collect();
         assert_eq!(
             names,

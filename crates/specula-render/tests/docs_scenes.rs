@@ -18,12 +18,11 @@
 //! The scenes are rendered one after the other, each over all cores; at the reduced sizes
 //! (mostly 320×240) the suite takes a few minutes on two cores.
 
-use specula_render::image_io::read_image;
-use specula_render::metrics::{Criteria, RgbImage};
-use specula_render::render::{render, RenderOptions};
+mod common;
+
+use common::{criteria, render_and_judge, selected, Report};
 use specula_render::scene::{LoadOptions, Scene};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
 
 /// Scenes that need what this renderer does not do yet, with the plugins whose names the load
 /// error must contain. This list shrinks as those features land.
@@ -163,7 +162,6 @@ fn docs_scenes_match_mitsuba_references() {
     let Some(dir) = docs() else { return };
     let metrics = metrics();
     let refs = specula_testdata::root().join("mitsuba-data/reference");
-    let only = std::env::var("SPECULA_SCENES").ok();
     let mut names: Vec<&String> = metrics
         .as_object()
         .unwrap()
@@ -171,14 +169,9 @@ fn docs_scenes_match_mitsuba_references() {
         .filter(|k| !k.starts_with('_'))
         .collect();
     names.sort();
-    let (mut rows, mut failures) = (vec![], vec![]);
-    let (mut conforming, mut rendered) = (0, 0);
-    for name in names {
-        if let Some(o) = &only {
-            if !o.split(',').any(|s| s == name) {
-                continue;
-            }
-        }
+    let mut report = Report::default();
+    let mut conforming = 0;
+    for name in names.into_iter().filter(|n| selected(n)) {
         let m = &metrics[name];
         let res = &m["resolution"];
         let size = (
@@ -187,89 +180,34 @@ fn docs_scenes_match_mitsuba_references() {
         );
         let path = dir.join(format!("{name}.xml"));
         if let Some((_, why)) = exception(name) {
-            rows.push(format!("{name:<44} excepted: {why}"));
+            report.note(format!("{name:<44} excepted: {why}"));
             continue;
         }
         let scene = match load(&path, Some(size)) {
             Ok(s) => s,
             Err(e) => {
-                failures.push(format!("{name}: does not load: {e}"));
+                report.fail(format!("{name}: does not load: {e}"));
                 continue;
             }
         };
-        let (refimg, _) = read_image(&refs.join(format!("{name}.exr"))).unwrap();
-        let reference = RgbImage::from(&refimg);
-        let (mut renders, mut invalid, mut elapsed) = (vec![], 0, 0.0);
-        for seed in 0..SEEDS {
-            let opts = RenderOptions {
-                spp: 64,
-                seed,
-                threads: 0,
-            };
-            let out = render(&scene, &opts, &AtomicBool::new(false), &|_, _| {});
-            invalid += out.counters.invalid;
-            elapsed += out.elapsed.as_secs_f64();
-            renders.push(RgbImage {
-                width: out.width,
-                height: out.height,
-                data: out.rgb,
-            });
-        }
-        rendered += 1;
-        if (renders[0].width, renders[0].height) != (reference.width, reference.height) {
-            failures.push(format!(
-                "{name}: rendered {}×{}, reference {}×{}",
-                renders[0].width, renders[0].height, reference.width, reference.height
-            ));
-            continue;
-        }
-        let criteria = Criteria::new(
-            m["mitsuba_64spp_relmse"].as_f64().unwrap(),
-            m["mitsuba_64spp_block8"].as_f64().unwrap(),
-            m["mean_tol"].as_f64().unwrap(),
-        );
-        let v = criteria.judge(&renders, &reference);
-        let ok = v.ok() && invalid == 0;
-        if ok {
-            conforming += 1;
-        }
-        let row = format!(
-            "{name:<44} {}  {:.2}s  {}",
-            v.row(&criteria),
-            elapsed / SEEDS as f64,
-            if ok {
-                "ok"
-            } else if KNOWN_NONCONFORMING.iter().any(|(n, _)| n == name) {
-                "FAIL (known)"
-            } else {
-                "FAIL"
+        let c = criteria(m, m["mean_tol"].as_f64().unwrap());
+        let reference = refs.join(format!("{name}.exr"));
+        let j = render_and_judge(name, &scene, SEEDS, &reference, &c);
+        conforming += j.ok as usize;
+        match KNOWN_NONCONFORMING.iter().find(|(n, _)| n == name) {
+            None => report.judged(name, j),
+            Some((_, why)) => {
+                report.row(name, &j, if j.ok { "ok" } else { "FAIL (known)" });
+                if j.ok {
+                    report.fail(format!(
+                        "{name} conforms now: remove it from KNOWN_NONCONFORMING"
+                    ));
+                } else {
+                    eprintln!("{name}: known not to conform: {why}");
+                }
             }
-        );
-        // printed as it goes (long runs), and again in the table at the end
-        eprintln!("{row}");
-        rows.push(row);
-        let known = KNOWN_NONCONFORMING.iter().find(|(n, _)| n == name);
-        if let Some((_, why)) = known {
-            if ok {
-                failures.push(format!(
-                    "{name} conforms now: remove it from KNOWN_NONCONFORMING"
-                ));
-            } else {
-                eprintln!("{name}: known not to conform: {why}");
-            }
-        } else if !ok {
-            failures.push(format!(
-                "{name}: {}; invalid samples {invalid}",
-                v.failures(&criteria)
-            ));
         }
     }
-    println!("{}", rows.join("\n"));
-    println!("{rendered} rendered, {conforming} conform");
-    assert!(rendered > 0 || only.is_some(), "no scene was rendered");
-    assert!(
-        failures.is_empty(),
-        "non-conforming docs scenes:\n{}",
-        failures.join("\n")
-    );
+    println!("{} rendered, {conforming} conform", report.rendered());
+    report.finish("docs scenes", true);
 }

@@ -18,12 +18,11 @@
 //! `volpathmis_renders_match_mitsuba_references` renders the judged scenes again with
 //! `volpathmis` (see its docs). `SPECULA_SCENES=a,b` restricts the run to those scenes.
 
-use specula_render::image_io::read_image;
-use specula_render::metrics::{Criteria, RgbImage};
-use specula_render::render::{render, RenderOptions};
+mod common;
+
+use common::{criteria, mean_tol_by_ref_spp, render_and_judge, selected, Judged, Report};
 use specula_render::scene::Scene;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
 
 /// Scenes whose reference depends on how coplanar surfaces are ordered (see the module docs).
 const COPLANAR_TIE: &[&str] = &["med_fog_box"];
@@ -47,67 +46,29 @@ fn collect(scenes: &Path, refs: &Path) -> Vec<(String, PathBuf, PathBuf, serde_j
     out
 }
 
-/// Renders `scene` at 64 spp (seed 0) and judges it against `reference_path` with Mitsuba's
-/// 64-spp figures `m`: a report row, and the failure (if any, and if `judged`).
-fn check(
-    name: &str,
-    scene: &Scene,
-    reference_path: &Path,
-    m: &serde_json::Value,
-    judged: bool,
-) -> (String, Option<String>) {
-    let opts = RenderOptions {
-        spp: 64,
-        seed: 0,
-        threads: 0,
-    };
-    let out = render(scene, &opts, &AtomicBool::new(false), &|_, _| {});
-    let (refimg, _) = read_image(reference_path).unwrap();
-    let reference = RgbImage::from(&refimg);
-    if (out.width, out.height) != (reference.width, reference.height) {
-        let msg = format!(
-            "{name}: rendered {}×{}, reference {}×{}",
-            out.width, out.height, reference.width, reference.height
-        );
-        return (msg.clone(), Some(msg));
-    }
-    let img = RgbImage {
-        width: out.width,
-        height: out.height,
-        data: out.rgb,
-    };
-    let ref_spp = m["ref_spp"].as_f64().unwrap();
-    let criteria = Criteria::new(
-        m["mitsuba_64spp_relmse"].as_f64().unwrap(),
-        m["mitsuba_64spp_block8"].as_f64().unwrap(),
-        if ref_spp > 1024.0 { 0.02 } else { 0.01 },
-    );
-    let v = criteria.judge(std::slice::from_ref(&img), &reference);
-    let verdict = match (v.ok(), judged) {
-        (true, _) => "ok",
-        (false, true) => "FAIL",
-        (false, false) => "differs (coplanar tie, not judged)",
-    };
-    let row = format!(
-        "{name:<24} {}  {:.1}s  invalid {}  {verdict}",
-        v.row(&criteria),
-        out.elapsed.as_secs_f64(),
-        out.counters.invalid
-    );
-    let failure = ((verdict == "FAIL") || out.counters.invalid != 0).then(|| {
-        format!(
-            "{name}: {}; invalid samples {}",
-            v.failures(&criteria),
-            out.counters.invalid
-        )
-    });
-    (row, failure)
+/// Renders `scene` at 64 spp (seed 0) and judges it against `reference` with Mitsuba's
+/// 64-spp figures `m`.
+fn check(name: &str, scene: &Scene, reference: &Path, m: &serde_json::Value) -> Judged {
+    let c = criteria(m, mean_tol_by_ref_spp(m));
+    render_and_judge(name, scene, 1, reference, &c)
 }
 
-fn selected(name: &str) -> bool {
-    std::env::var("SPECULA_SCENES")
-        .map(|o| o.split(',').any(|s| s == name))
-        .unwrap_or(true)
+/// Adds a judged scene to the report; a scene of [`COPLANAR_TIE`] is reported, not judged
+/// (but fails on NaN or infinite samples).
+fn add(report: &mut Report, name: &str, j: Judged) {
+    if COPLANAR_TIE.contains(&name) {
+        let verdict = if j.ok {
+            "ok"
+        } else {
+            "differs (coplanar tie, not judged)"
+        };
+        report.row(name, &j, verdict);
+        if j.invalid != 0 {
+            report.fail(j.failure);
+        }
+    } else {
+        report.judged(name, j);
+    }
 }
 
 #[test]
@@ -121,30 +82,17 @@ fn media_renders_match_mitsuba_references() {
     if let Some(media) = specula_testdata::shared("media/scenes") {
         scenes.extend(collect(&media, &media.parent().unwrap().join("reference")));
     }
-    let mut failures = Vec::new();
-    let mut rows = Vec::new();
-    for (name, path, reference_path, m) in &scenes {
+    let mut report = Report::default();
+    for (name, path, reference, m) in &scenes {
         if !selected(name) {
             continue;
         }
-        let scene = match Scene::load(path, &[("spp".into(), "64".into())]) {
-            Ok(s) => s,
-            Err(e) => {
-                failures.push(format!("{name}: does not load: {e}"));
-                continue;
-            }
-        };
-        let judged = !COPLANAR_TIE.contains(&name.as_str());
-        let (row, failure) = check(name, &scene, reference_path, m, judged);
-        rows.push(row);
-        failures.extend(failure);
+        match Scene::load(path, &[("spp".into(), "64".into())]) {
+            Ok(scene) => add(&mut report, name, check(name, &scene, reference, m)),
+            Err(e) => report.fail(format!("{name}: does not load: {e}")),
+        }
     }
-    println!("{}", rows.join("\n"));
-    assert!(
-        failures.is_empty(),
-        "non-conforming scenes:\n{}",
-        failures.join("\n")
-    );
+    report.finish("media", true);
 }
 
 /// `volpathmis` (same expectation as `volpath`): the scenes listed in
@@ -164,13 +112,12 @@ fn volpathmis_renders_match_mitsuba_references() {
         Some(rel) => specula_testdata::shared(rel),
         None => Some(root.join(p)),
     };
-    let mut failures = Vec::new();
-    let mut rows = Vec::new();
+    let mut report = Report::default();
     for (name, m) in &metrics {
         if !selected(name) {
             continue;
         }
-        let (Some(path), Some(reference_path)) = (
+        let (Some(path), Some(reference)) = (
             resolve(m["scene"].as_str().unwrap()),
             resolve(m["reference"].as_str().unwrap()),
         ) else {
@@ -179,26 +126,15 @@ fn volpathmis_renders_match_mitsuba_references() {
         let text = std::fs::read_to_string(&path).unwrap();
         assert_eq!(text.matches(r#"type="volpath""#).count(), 1, "{name}");
         let text = text.replace(r#"type="volpath""#, r#"type="volpathmis""#);
-        let scene = match Scene::from_xml_str(
+        match Scene::from_xml_str(
             &text,
             &path.display().to_string(),
             path.parent().unwrap(),
             &[("spp".into(), "64".into())],
         ) {
-            Ok(s) => s,
-            Err(e) => {
-                failures.push(format!("{name}: does not load: {e}"));
-                continue;
-            }
-        };
-        let (row, failure) = check(name, &scene, &reference_path, m, true);
-        rows.push(row);
-        failures.extend(failure);
+            Ok(scene) => report.judged(name, check(name, &scene, &reference, m)),
+            Err(e) => report.fail(format!("{name}: does not load: {e}")),
+        }
     }
-    println!("volpathmis:\n{}", rows.join("\n"));
-    assert!(
-        failures.is_empty(),
-        "non-conforming scenes (volpathmis):\n{}",
-        failures.join("\n")
-    );
+    report.finish("volpathmis", false);
 }

@@ -11,24 +11,19 @@
 //! `metrics.json`: every channel of the mean ratio within 1 ± 0.01, block8 ≤ 2 × Mitsuba's +
 //! 1e-5, relMSE ≤ 1.5 × Mitsuba's.
 
-use specula_render::image_io::read_image;
-use specula_render::metrics::{Criteria, RgbImage};
-use specula_render::render::{render, RenderOptions};
+mod common;
+
+use common::{criteria, read_metrics, render_and_judge, Report};
 use specula_render::scene::{LoadOptions, Scene};
 use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
 
 fn data() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/spectral_xml")
 }
 
-fn metrics() -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(data().join("metrics.json")).unwrap()).unwrap()
-}
-
 #[test]
 fn spectrum_scenes_match_mitsuba_spectral_references() {
-    let metrics = metrics();
+    let metrics = read_metrics(&data().join("metrics.json"));
     let mut names: Vec<&String> = metrics.as_object().unwrap().keys().collect();
     names.sort();
     assert_eq!(
@@ -40,8 +35,7 @@ fn spectrum_scenes_match_mitsuba_spectral_references() {
             "variants_cbox_spectral"
         ]
     );
-    let mut failures = Vec::new();
-    let mut rows = Vec::new();
+    let mut report = Report::default();
     for name in names {
         let m = &metrics[name];
         let res = m["resolution"].as_array().unwrap();
@@ -63,52 +57,11 @@ fn spectrum_scenes_match_mitsuba_spectral_references() {
         };
         let mut scene = Scene::load_with(&path, &[], &opts).unwrap();
         scene.set_spectral(true).unwrap();
-        let opts = RenderOptions {
-            spp: 64,
-            seed: 0,
-            threads: 0,
-        };
-        let out = render(&scene, &opts, &AtomicBool::new(false), &|_, _| {});
-        let (refimg, _) = read_image(&data().join(format!("{name}.exr"))).unwrap();
-        let reference = RgbImage::from(&refimg);
-        assert_eq!(
-            (out.width, out.height),
-            (reference.width, reference.height),
-            "{name}"
-        );
-        let img = RgbImage {
-            width: out.width,
-            height: out.height,
-            data: out.rgb,
-        };
-        let criteria = Criteria::new(
-            m["mitsuba_64spp_relmse"].as_f64().unwrap(),
-            m["mitsuba_64spp_block8"].as_f64().unwrap(),
-            0.01,
-        );
-        let v = criteria.judge(std::slice::from_ref(&img), &reference);
-        let ok = v.ok() && out.counters.invalid == 0;
-        rows.push(format!(
-            "{name:<14} {}  {:.1}s  invalid {}  {}",
-            v.row(&criteria),
-            out.elapsed.as_secs_f64(),
-            out.counters.invalid,
-            if ok { "ok" } else { "FAIL" }
-        ));
-        if !ok {
-            failures.push(format!(
-                "{name}: {}; invalid samples {}",
-                v.failures(&criteria),
-                out.counters.invalid
-            ));
-        }
+        let reference = data().join(format!("{name}.exr"));
+        let j = render_and_judge(name, &scene, 1, &reference, &criteria(m, 0.01));
+        report.judged(name, j);
     }
-    println!("{}", rows.join("\n"));
-    assert!(
-        failures.is_empty(),
-        "non-conforming scenes:\n{}",
-        failures.join("\n")
-    );
+    report.finish("spectrum scenes", true);
 }
 
 fn fixture() -> serde_json::Value {

@@ -17,6 +17,7 @@ import re
 
 import mitsuba as mi
 import numpy as np
+from refmetrics import block8, relmse
 
 mi.set_variant("llvm_ad_rgb")
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -29,20 +30,6 @@ def lifted_xml():
     new, n = re.subn(r'<translate y="1.2"/>', '<translate y="1.201"/>', text)
     assert n == 1
     return new
-
-
-def relmse(img, ref, trim=True):
-    e = ((img - ref) ** 2 / (ref**2 + 0.01)).mean(axis=2).ravel()
-    e = np.where(np.isfinite(e), e, 1e30)
-    k = int(0.001 * e.size)
-    e = np.sort(e)[: e.size - k] if trim and k > 0 else e
-    return float(e.mean())
-
-
-def block8(img, ref):
-    h, w = img.shape[0] // 8 * 8, img.shape[1] // 8 * 8
-    f = lambda a: a[:h, :w].reshape(h // 8, 8, w // 8, 8, 3).mean(axis=(1, 3))
-    return relmse(f(img), f(ref))
 
 
 def main():

@@ -18,6 +18,7 @@ import os
 
 import mitsuba as mi
 import numpy as np
+from refmetrics import block8, relmse
 
 mi.set_variant("llvm_ad_rgb")
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -34,20 +35,6 @@ SCENES = [
 
 def resolve(p):
     return os.path.join(SHARED, p[len("shared:"):]) if p.startswith("shared:") else os.path.join(ROOT, p)
-
-
-def relmse(img, ref, trim=True):
-    e = ((img - ref) ** 2 / (ref**2 + 0.01)).mean(axis=2).ravel()
-    e = np.where(np.isfinite(e), e, 1e30)
-    k = int(0.001 * e.size)
-    e = np.sort(e)[: e.size - k] if trim and k > 0 else e
-    return float(e.mean())
-
-
-def block8(img, ref):
-    h, w = img.shape[0] // 8 * 8, img.shape[1] // 8 * 8
-    f = lambda a: a[:h, :w].reshape(h // 8, 8, w // 8, 8, 3).mean(axis=(1, 3))
-    return relmse(f(img), f(ref))
 
 
 def main():

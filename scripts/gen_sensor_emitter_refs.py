@@ -24,6 +24,7 @@ import pathlib
 
 import mitsuba as mi
 import numpy as np
+from refmetrics import block, relmse
 
 mi.set_variant("llvm_ad_rgb")
 OUT = pathlib.Path("crates/specula-render/tests/data/sensors_emitters")
@@ -122,19 +123,6 @@ SCENES = {
     </emitter>
 """ + COMMON + "</scene>\n",
 }
-
-
-def relmse(a, b):
-    e = ((a - b) ** 2 / (b**2 + 0.01)).mean(-1).ravel()
-    e = np.where(np.isfinite(e), e, 1e30)
-    e.sort()
-    k = int(0.001 * e.size)
-    return float(e[: e.size - k].mean())
-
-
-def block(a, k=8):
-    h, w = a.shape[0] // k * k, a.shape[1] // k * k
-    return a[:h, :w].reshape(h // k, k, w // k, k, 3).mean((1, 3))
 
 
 def main():

@@ -4,7 +4,7 @@
 crates/specula-render/tests/spectral_conformance.rs (Specula's `--mode spectral` with `volpath`).
 
 Developer tool only: CI never runs it (CI has no Mitsuba). Same requirements and conventions as
-scripts/make_spectral_references.py (whose metric functions it imports). Run from the
+scripts/make_spectral_references.py (metrics and Mitsuba loop from scripts/refmetrics.py). Run from the
 repository root, with ../shared beside it:
 
     DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 \
@@ -30,7 +30,8 @@ import sys
 import time
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from make_spectral_references import PASS_SPP, SEEDS, block, defaults, relmse  # noqa: E402
+from make_spectral_references import PASS_SPP, SEEDS  # noqa: E402
+from refmetrics import defaults, own_error, reference  # noqa: E402
 
 import mitsuba as mi  # noqa: E402
 import numpy as np  # noqa: E402
@@ -58,31 +59,20 @@ def main():
         ref_spp = 4096 if shared.get(name, {}).get("ref_spp", 1024) > 1024 else 1024
         t0 = time.time()
         scene = mi.load_file(str(path), resx=w, resy=h)
-        acc = np.zeros((h, w, 3))
-        for i in range(ref_spp // PASS_SPP):
-            img = np.array(mi.render(scene, spp=PASS_SPP, seed=1000 + i), dtype=np.float64)
-            acc += img[..., :3]
-        ref = acc / (ref_spp // PASS_SPP)
+        ref = reference(scene, ref_spp, PASS_SPP)
         ref_seconds = time.time() - t0
         mi.Bitmap(ref.astype(np.float16)).write(str(OUT / f"{name}.exr"))
-        rel, b8, ratio = [], [], []
-        for seed in range(SEEDS):
-            img = np.array(mi.render(scene, spp=64, seed=seed), dtype=np.float64)[..., :3]
-            rel.append(relmse(img, ref))
-            b8.append(relmse(block(img), block(ref)))
-            ratio.append(img.mean((0, 1)) / ref.mean((0, 1)))
+        err = own_error(scene, ref, SEEDS)
         metrics[name] = {
             "scene": str(path),
             "ref_spp": ref_spp,
             "resolution": [w, h],
             "ref_mean": ref.mean((0, 1)).tolist(),
             "ref_seconds": round(ref_seconds, 1),
-            "mitsuba_64spp_relmse": float(np.mean(rel)),
-            "mitsuba_64spp_block8": float(np.mean(b8)),
-            "mitsuba_64spp_mean_ratio": np.mean(ratio, 0).tolist(),
+            **err,
         }
         print(f"{name}: {w}x{h} {ref_spp} spp in {ref_seconds:.0f} s, "
-              f"relmse {np.mean(rel):.4g}, block8 {np.mean(b8):.3g}, "
+              f"relmse {err['mitsuba_64spp_relmse']:.4g}, block8 {err['mitsuba_64spp_block8']:.3g}, "
               f"mean {ref.mean((0, 1))}", flush=True)
         mpath.write_text(json.dumps(dict(sorted(metrics.items())), indent=1) + "\n")
 

@@ -23,35 +23,19 @@ the float32 images before rounding, and the rounding, ≤ 5·10⁻⁴ relative, 
 """
 import json
 import pathlib
-import re
 import sys
 import time
 
 import mitsuba as mi
 import numpy as np
 
+from refmetrics import defaults, own_error, reference
+
 mi.set_variant("llvm_ad_spectral")
 SHARED = pathlib.Path("../shared")
 OUT = pathlib.Path("tests/data/spectral")
 PASS_SPP = 256
 SEEDS = 2
-
-
-def relmse(a, b):
-    e = ((a - b) ** 2 / (b**2 + 0.01)).mean(-1).ravel()
-    e = np.where(np.isfinite(e), e, 1e30)
-    e.sort()
-    k = int(0.001 * e.size)
-    return float(e[: e.size - k].mean())
-
-
-def block(a, k=8):
-    h, w = a.shape[0] // k * k, a.shape[1] // k * k
-    return a[:h, :w].reshape(h // k, k, w // k, k, 3).mean((1, 3))
-
-
-def defaults(text):
-    return {m.group(1): m.group(2) for m in re.finditer(r'<default name="(\w+)" value="([^"]*)"', text)}
 
 
 def main():
@@ -69,33 +53,23 @@ def main():
         t0 = time.time()
         try:
             scene = mi.load_file(str(path), resx=w, resy=h)
-            acc = np.zeros((h, w, 3))
-            for i in range(ref_spp // PASS_SPP):
-                img = np.array(mi.render(scene, spp=PASS_SPP, seed=1000 + i), dtype=np.float64)
-                acc += img[..., :3]
-            ref = acc / (ref_spp // PASS_SPP)
+            ref = reference(scene, ref_spp, PASS_SPP)
         except Exception as e:  # noqa: BLE001 - record what Mitsuba cannot render
             skipped[name] = str(e).splitlines()[0][:300]
             print(f"{name}: skipped ({skipped[name]})", flush=True)
             continue
         skipped.pop(name, None)
         mi.Bitmap(ref.astype(np.float16)).write(str(OUT / f"{name}.exr"))
-        rel, b8, ratio = [], [], []
-        for seed in range(SEEDS):
-            img = np.array(mi.render(scene, spp=64, seed=seed), dtype=np.float64)[..., :3]
-            rel.append(relmse(img, ref))
-            b8.append(relmse(block(img), block(ref)))
-            ratio.append(img.mean((0, 1)) / ref.mean((0, 1)))
+        err = own_error(scene, ref, SEEDS)
         metrics[name] = {
             "ref_spp": ref_spp,
             "resolution": [w, h],
             "ref_mean": ref.mean((0, 1)).tolist(),
-            "mitsuba_64spp_relmse": float(np.mean(rel)),
-            "mitsuba_64spp_block8": float(np.mean(b8)),
-            "mitsuba_64spp_mean_ratio": np.mean(ratio, 0).tolist(),
+            **err,
         }
         print(f"{name}: {w}x{h} {ref_spp} spp in {time.time() - t0:.0f} s, "
-              f"relmse {np.mean(rel):.4g}, block8 {np.mean(b8):.3g}", flush=True)
+              f"relmse {err['mitsuba_64spp_relmse']:.4g}, block8 {err['mitsuba_64spp_block8']:.3g}",
+              flush=True)
         out = dict(sorted(metrics.items()))
         if skipped:
             out["_skipped"] = skipped

@@ -28,35 +28,19 @@ to RGB when the scene loads), for the report.
 """
 import json
 import pathlib
-import re
 import sys
 import time
 
 import mitsuba as mi
 import numpy as np
 
+from refmetrics import defaults, own_error, reference
+
 DIR = pathlib.Path("tests/data/spectral_xml")
 SHARED = {"variants_cbox_spectral": ("mitsuba-data/docs/scenes/variants_cbox_spectral.xml", (125, 125))}
 REF_SPP = 4096
 PASS_SPP = 256
 SEEDS = 2
-
-
-def relmse(a, b):
-    e = ((a - b) ** 2 / (b**2 + 0.01)).mean(-1).ravel()
-    e = np.where(np.isfinite(e), e, 1e30)
-    e.sort()
-    k = int(0.001 * e.size)
-    return float(e[: e.size - k].mean())
-
-
-def block(a, k=8):
-    h, w = a.shape[0] // k * k, a.shape[1] // k * k
-    return a[:h, :w].reshape(h // k, k, w // k, k, 3).mean((1, 3))
-
-
-def defaults(text):
-    return {m.group(1): m.group(2) for m in re.finditer(r'<default name="(\w+)" value="([^"]*)"', text)}
 
 
 def load(name):
@@ -91,30 +75,20 @@ def main():
     for name in names:
         t0 = time.time()
         scene, (w, h) = load(name)
-        acc = np.zeros((h, w, 3))
-        for i in range(REF_SPP // PASS_SPP):
-            img = np.array(mi.render(scene, spp=PASS_SPP, seed=1000 + i), dtype=np.float64)
-            acc += img[..., :3]
-        ref = acc / (REF_SPP // PASS_SPP)
+        ref = reference(scene, REF_SPP, PASS_SPP)
         mi.Bitmap(ref.astype(np.float16)).write(str(DIR / f"{name}.exr"))
-        rel, b8, ratio = [], [], []
-        for seed in range(SEEDS):
-            img = np.array(mi.render(scene, spp=64, seed=seed), dtype=np.float64)[..., :3]
-            rel.append(relmse(img, ref))
-            b8.append(relmse(block(img), block(ref)))
-            ratio.append(img.mean((0, 1)) / ref.mean((0, 1)))
+        err = own_error(scene, ref, SEEDS)
         metrics[name] = {
             **({"shared": SHARED[name][0]} if name in SHARED else {}),
             "ref_spp": REF_SPP,
             "resolution": [w, h],
             "ref_mean": ref.mean((0, 1)).tolist(),
             "rgb_mode_mean": rgb_means[name],
-            "mitsuba_64spp_relmse": float(np.mean(rel)),
-            "mitsuba_64spp_block8": float(np.mean(b8)),
-            "mitsuba_64spp_mean_ratio": np.mean(ratio, 0).tolist(),
+            **err,
         }
         print(f"{name}: {w}x{h} {REF_SPP} spp in {time.time() - t0:.0f} s, "
-              f"relmse {np.mean(rel):.4g}, block8 {np.mean(b8):.3g}, mean {ref.mean((0, 1))}, "
+              f"relmse {err['mitsuba_64spp_relmse']:.4g}, block8 {err['mitsuba_64spp_block8']:.3g}, "
+              f"mean {ref.mean((0, 1))}, "
               f"RGB variant's mean {rgb_means[name]}", flush=True)
         mpath.write_text(json.dumps(dict(sorted(metrics.items())), indent=1) + "\n")
 

@@ -36,6 +36,7 @@ SPECULA_EXE overrides the path of the `specula` binary (default: target/release/
 import argparse, json, math, os, pathlib, resource, subprocess, sys, tempfile, time
 
 import numpy as np
+from refmetrics import relmse
 
 root = pathlib.Path(__file__).resolve().parent.parent
 shared = root.parent / "shared"
@@ -55,19 +56,6 @@ def read_exr(path):
     if a.shape[2] == 1:
         a = np.repeat(a, 3, axis=2)
     return a[:, :, :3]
-
-
-def relmse(img, ref):
-    """The trimmed relative MSE of ../shared/README.md."""
-    assert img.shape == ref.shape, (img.shape, ref.shape)
-    with np.errstate(invalid="ignore", over="ignore"):
-        e = ((img - ref) ** 2 / (ref ** 2 + 0.01)).mean(axis=2).ravel()
-    bad = ~np.isfinite(img).all(axis=2).ravel() | ~np.isfinite(ref).all(axis=2).ravel()
-    e[bad] = 1e30
-    n = e.size
-    drop = n // 1000
-    e.sort()
-    return float(e[: n - drop].mean())
 
 
 def reference(scene):

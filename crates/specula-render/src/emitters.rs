@@ -197,6 +197,23 @@ impl Emitter {
         }
     }
 
+    /// The emitter's colour when every light sample's weight is a multiple of it (no image, no
+    /// `<spectrum>`, not an environment map): what spectral mode prepares once
+    /// ([`specula_bsdf::spectral::upsample::Illuminant`]).
+    pub fn constant_colour(&self) -> Option<Rgb> {
+        if self.spectrum().is_some() {
+            return None;
+        }
+        match self {
+            Emitter::Point(l) => Some(l.intensity),
+            Emitter::Directional(l) => Some(l.irradiance),
+            Emitter::Constant(l) => Some(l.radiance),
+            Emitter::Spot(l) => l.texture.is_none().then_some(l.intensity),
+            Emitter::Projector(l) => l.texture.is_none().then_some(l.irradiance),
+            Emitter::Envmap(_) => None,
+        }
+    }
+
     /// Reads the `<spectrum>` of the emitter's value parameter `name` ([`light_spectrum`]) into
     /// the emitter built from node `n`.
     fn with_spectrum(mut self, n: &Node, name: &str) -> Result<Self> {

@@ -39,7 +39,6 @@ use crate::geometry::Geometry;
 use crate::sampler::Sampler;
 pub use crate::scene::PathSettings;
 use crate::scene::{Light, Scene};
-use crate::spectral::infinite_emission;
 use crate::xml::Node;
 use glam::{Vec2, Vec3};
 use specula_bsdf::spectral::dispersion::collapse_dead_channels;
@@ -329,7 +328,7 @@ impl Scene {
                             if le.is_black() {
                                 continue;
                             }
-                            let le = infinite_emission(e, ray.d, le, wl);
+                            let le = self.infinite_emission_of(li, e, ray.d, le, wl);
                             let w = if prev_bsdf_delta {
                                 1.0
                             } else {
@@ -360,7 +359,8 @@ impl Scene {
                                 self.area_light_pdf(hit.shape, prev_p, si.p, si.n_geo),
                             )
                         };
-                        result += throughput * radiance.emission(si.uv, si.p, wl) * w;
+                        result +=
+                            throughput * self.area_emission_at(li, radiance, si.uv, si.p, wl) * w;
                     }
                 }
             }
@@ -760,7 +760,7 @@ impl Scene {
                 if le.is_black() {
                     continue;
                 }
-                let le = infinite_emission(e, d, le, wl);
+                let le = self.infinite_emission_of(li, e, d, le, wl);
                 let w = match bsdf_pdf {
                     None => 1.0,
                     Some(p) => mis(p, e.pdf_direction(d) * self.light_select_pdf() * light_frac),
@@ -783,7 +783,9 @@ impl Scene {
     ) -> Option<Rgb> {
         let li = self.shape_light[shape]?;
         match &self.lights[li as usize] {
-            Light::Area { radiance, .. } if wi.z > 0.0 => Some(radiance.emission(si.uv, si.p, wl)),
+            Light::Area { radiance, .. } if wi.z > 0.0 => {
+                Some(self.area_emission_at(li, radiance, si.uv, si.p, wl))
+            }
             _ => None,
         }
     }

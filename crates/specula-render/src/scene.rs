@@ -286,6 +286,9 @@ pub struct Scene {
     pub volpath: bool,
     /// Render in spectral mode ([`crate::spectral`]; set it with [`Scene::set_spectral`]).
     pub spectral: bool,
+    /// Per light, in spectral mode: its colour prepared for upsampling when it is constant
+    /// (see [`Scene::light_weight`]); empty in RGB mode.
+    pub(crate) light_colours: Vec<Option<specula_bsdf::spectral::upsample::Illuminant>>,
 }
 
 impl Scene {
@@ -750,6 +753,7 @@ impl Builder {
             camera_medium: parts.media.camera_medium,
             volpath: parts.media.volpath,
             spectral: false,
+            light_colours: Vec::new(),
         })
     }
 

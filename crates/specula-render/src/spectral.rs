@@ -133,6 +133,41 @@ impl AreaRadiance {
 }
 
 impl Scene {
+    /// The radiance of area light `light` (index into [`Scene::lights`], with `radiance` its
+    /// [`AreaRadiance`]) at a surface point, as a path sees it: [`AreaRadiance::emission`],
+    /// from the prepared colour where there is one.
+    #[inline]
+    pub(crate) fn area_emission_at(
+        &self,
+        light: u32,
+        radiance: &AreaRadiance,
+        uv: Vec2,
+        p: Vec3,
+        wl: Option<&Wavelengths>,
+    ) -> Rgb {
+        match (wl, self.light_colours.get(light as usize)) {
+            (Some(w), Some(Some(c))) => c.scaled(radiance.eval(uv, p), w),
+            _ => radiance.emission(uv, p, wl),
+        }
+    }
+
+    /// [`infinite_emission`] of light `light` (index into [`Scene::lights`]), from the
+    /// prepared colour where there is one.
+    #[inline]
+    pub(crate) fn infinite_emission_of(
+        &self,
+        light: u32,
+        e: &Emitter,
+        d: Vec3,
+        le: Rgb,
+        wl: Option<&Wavelengths>,
+    ) -> Rgb {
+        match (wl, self.light_colours.get(light as usize)) {
+            (Some(w), Some(Some(c))) => c.scaled(le, w),
+            _ => infinite_emission(e, d, le, wl),
+        }
+    }
+
     /// A light sample's weight (radiance / pdf) at the wavelengths (see
     /// [`infinite_emission`]).
     #[inline]
@@ -140,6 +175,9 @@ impl Scene {
         let Some(w) = wl else {
             return ls.weight;
         };
+        if let Some(Some(c)) = self.light_colours.get(ls.light as usize) {
+            return c.scaled(ls.weight, w);
+        }
         match &self.lights[ls.light as usize] {
             Light::Other(Emitter::Envmap(m)) => m.eval_spectral(ls.wi, w) * (1.0 / ls.pdf),
             Light::Area {
@@ -177,6 +215,20 @@ impl Scene {
                     .map_err(|e| SceneError::new(None, format!("medium {i}: {e}")))?;
             }
             upsample::table();
+            self.light_colours = self
+                .lights
+                .iter()
+                .map(|l| match l {
+                    Light::Area {
+                        radiance: AreaRadiance::Rgb(c),
+                        ..
+                    } => Some(upsample::Illuminant::new(*c)),
+                    Light::Other(e) => e.constant_colour().map(upsample::Illuminant::new),
+                    _ => None,
+                })
+                .collect();
+        } else {
+            self.light_colours.clear();
         }
         self.spectral = on;
         Ok(())

@@ -55,7 +55,6 @@ use crate::integrator::{Counters, LightSample};
 use crate::media::{is_null_bsdf, FreeFlight};
 use crate::sampler::Sampler;
 use crate::scene::{Light, PathSettings, Scene};
-use crate::spectral::infinite_emission;
 use crate::xml::Node;
 use glam::Vec3;
 use specula_bsdf::spectral::dispersion::collapse_dead_channels;
@@ -335,7 +334,7 @@ impl Scene {
                             if le.is_black() {
                                 continue;
                             }
-                            let le = infinite_emission(e, ray.d, le, wl);
+                            let le = self.infinite_emission_of(li, e, ray.d, le, wl);
                             let w = if count_direct {
                                 1.0
                             } else {
@@ -361,7 +360,7 @@ impl Scene {
                                 self.area_light_pdf(hit.shape, last_p, si.p, si.n_geo),
                             )
                         };
-                        let le = radiance.emission(si.uv, si.p, wl);
+                        let le = self.area_emission_at(li, radiance, si.uv, si.p, wl);
                         result += throughput * le * (w / r_u.mean());
                     }
                 }

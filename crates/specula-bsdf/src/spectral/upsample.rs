@@ -427,6 +427,67 @@ pub fn illuminant(rgb: Rgb, w: &Wavelengths) -> Spectrum {
     reflectance(rgb / s, w) * d * s
 }
 
+/// An emitted colour prepared once for [`illuminant`]: the upsampling coefficients of its
+/// chromaticity, so that the spectrum of any non-negative multiple of it (a light sample's
+/// weight: the emitter's colour times geometry over a pdf) costs three sigmoid evaluations and
+/// three D65 values instead of a table lookup. Equal to [`illuminant`] of that multiple up to
+/// float rounding (the scale is read off the colour's largest channel).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Illuminant {
+    /// Coefficients of rgb / (2·max); `None` for a grey (or black) colour.
+    coeffs: Option<[f32; 3]>,
+    /// The colour's largest channel.
+    k: usize,
+    /// The colour's value in channel `k`.
+    max: f32,
+    grey: bool,
+}
+
+impl Illuminant {
+    /// Prepares `rgb` (negative channels count as 0).
+    pub fn new(rgb: Rgb) -> Self {
+        let rgb = rgb.map(|v| v.max(0.0));
+        let [r, g, b] = rgb.0;
+        let k = if r >= g && r >= b {
+            0
+        } else if g >= b {
+            1
+        } else {
+            2
+        };
+        let max = rgb.0[k];
+        let grey = r == g && g == b;
+        let coeffs = if grey || max <= 0.0 {
+            None
+        } else {
+            coefficients(rgb / (2.0 * max))
+        };
+        Illuminant {
+            coeffs,
+            k,
+            max,
+            grey,
+        }
+    }
+
+    /// [`illuminant`]`(weight, w)` for `weight` a non-negative multiple of the prepared colour.
+    #[inline]
+    pub fn scaled(&self, weight: Rgb, w: &Wavelengths) -> Spectrum {
+        if self.max <= 0.0 {
+            return Spectrum::ZERO;
+        }
+        let d = Rgb(w.0.map(cie::d65));
+        let m = weight.0[self.k].max(0.0);
+        if self.grey {
+            return d * m;
+        }
+        match self.coeffs {
+            Some(c) => Rgb(w.0.map(|l| eval_coefficients(c, l))) * d * (2.0 * m),
+            None => Spectrum::ZERO,
+        }
+    }
+}
+
 /// The linear-sRGB colour, under D65, of the reflectance `f(λ)` (1 nm steps): what
 /// [`reflectance`] is the inverse of.
 pub fn reflectance_to_rgb(f: impl Fn(f32) -> f32) -> Rgb {
@@ -466,6 +527,41 @@ mod tests {
                     (back.0[k] as f64 - target[k]).abs() < 1e-3,
                     "{target:?} → {back:?}"
                 );
+            }
+        }
+    }
+
+    /// A prepared [`Illuminant`] gives [`illuminant`] of every non-negative multiple of its
+    /// colour (random colours, grey, black, one zero channel; scales 0 to 10⁴), to float
+    /// rounding.
+    #[test]
+    fn prepared_illuminant_equals_illuminant_of_multiples() {
+        let mut rng = Pcg32::new(5, 1);
+        let mut colours = vec![
+            Rgb([0.5, 0.5, 0.5]),
+            Rgb([0.0, 0.0, 0.0]),
+            Rgb([3.0, 0.0, 1.0]),
+            Rgb([17.0, 12.0, 4.0]),
+        ];
+        for _ in 0..200 {
+            let c = Rgb([rng.next_f32(), rng.next_f32(), rng.next_f32()]) * (20.0 * rng.next_f32());
+            colours.push(c);
+        }
+        for c in colours {
+            let il = Illuminant::new(c);
+            for a in [0.0, 1e-3, 0.7, 1.0, 33.0, 1e4] {
+                let w = Wavelengths([
+                    360.0 + 470.0 * rng.next_f32(),
+                    360.0 + 470.0 * rng.next_f32(),
+                    360.0 + 470.0 * rng.next_f32(),
+                ]);
+                let (got, want) = (il.scaled(c * a, &w), illuminant(c * a, &w));
+                for k in 0..3 {
+                    assert!(
+                        (got.0[k] - want.0[k]).abs() <= 1e-4 * want.0[k].abs() + 1e-30,
+                        "{c:?} × {a} at {w:?}: {got:?} vs {want:?}"
+                    );
+                }
             }
         }
     }

@@ -17,9 +17,12 @@
 //! value (spaced by a double smoothstep, dense near 0 and 1) and x, y = the other two divided
 //! by z (uniform in [0, 1]); [`coefficients`] interpolates the grid trilinearly. The grid is
 //! computed by this code the first time spectral mode needs it (continuation along z from
-//! z ≈ 0.2 up and down, starting from the neighbouring solution; all cores; about 3 s on
-//! two cores), never read from a file. Greys (r = g = b) take the exact constant
-//! spectrum without a lookup.
+//! z ≈ 0.2 up and down, starting from the neighbouring solution; all cores; about 1.6 s of
+//! CPU). A program may keep it between processes ([`set_cache_dir`]; the `specula` binary
+//! uses `~/.cache/specula`): the file is this code's own output, read back only when its size,
+//! checksum and four columns recomputed by the present solver agree bit for bit, otherwise
+//! recomputed and rewritten. Greys (r = g = b) take the exact constant spectrum without a
+//! lookup.
 //!
 //! # Three kinds (Mitsuba's `srgb` and `d65` spectra)
 //! - [`reflectance`]: bounded, the colour clamped to [0, 1];
@@ -36,6 +39,7 @@
 
 use super::cie;
 use crate::spectrum::{Rgb, Spectrum, Wavelengths};
+use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 /// Resolution of the coefficient grid along each axis.
@@ -256,6 +260,38 @@ fn z_of(j: usize) -> f32 {
     s(s(j as f32 / (RES - 1) as f32))
 }
 
+/// One column of the grid (largest channel `l`, others' ratios `y`, `x`): every z slice,
+/// solved by continuation from slice RES/5 (started from zero) up and down.
+fn solve_column(z: &[f32; RES], l: usize, y: usize, x: usize) -> Vec<(usize, [f32; 3])> {
+    let solve_at = |j: usize, start: [f64; 3]| {
+        let zz = z[j] as f64;
+        let (xf, yf) = (
+            x as f64 / (RES - 1) as f64 * zz,
+            y as f64 / (RES - 1) as f64 * zz,
+        );
+        let mut rgb = [0.0; 3];
+        rgb[l] = zz;
+        rgb[(l + 1) % 3] = xf;
+        rgb[(l + 2) % 3] = yf;
+        solve(rgb, start)
+    };
+    let mut out = Vec::with_capacity(RES);
+    let j0 = RES / 5;
+    let first = solve_at(j0, [0.0; 3]);
+    out.push((j0, first.map(|v| v as f32)));
+    let mut prev = first;
+    for j in j0 + 1..RES {
+        prev = solve_at(j, prev);
+        out.push((j, prev.map(|v| v as f32)));
+    }
+    prev = first;
+    for j in (0..j0).rev() {
+        prev = solve_at(j, prev);
+        out.push((j, prev.map(|v| v as f32)));
+    }
+    out
+}
+
 /// The coefficient grid (see the module docs).
 pub struct Table {
     z: [f32; RES],
@@ -285,31 +321,8 @@ impl Table {
                     s.spawn(move || {
                         let mut out = Vec::with_capacity(cols.len() * RES);
                         for &(l, y, x) in cols {
-                            let solve_at = |j: usize, start: [f64; 3]| {
-                                let zz = z[j] as f64;
-                                let (xf, yf) = (
-                                    x as f64 / (RES - 1) as f64 * zz,
-                                    y as f64 / (RES - 1) as f64 * zz,
-                                );
-                                let mut rgb = [0.0; 3];
-                                rgb[l] = zz;
-                                rgb[(l + 1) % 3] = xf;
-                                rgb[(l + 2) % 3] = yf;
-                                solve(rgb, start)
-                            };
-                            let idx = |j: usize| ((l * RES + j) * RES + y) * RES + x;
-                            let j0 = RES / 5;
-                            let first = solve_at(j0, [0.0; 3]);
-                            out.push((idx(j0), first.map(|v| v as f32)));
-                            let mut prev = first;
-                            for j in j0 + 1..RES {
-                                prev = solve_at(j, prev);
-                                out.push((idx(j), prev.map(|v| v as f32)));
-                            }
-                            prev = first;
-                            for j in (0..j0).rev() {
-                                prev = solve_at(j, prev);
-                                out.push((idx(j), prev.map(|v| v as f32)));
+                            for (j, v) in solve_column(&z, l, y, x) {
+                                out.push((((l * RES + j) * RES + y) * RES + x, v));
                             }
                         }
                         out
@@ -365,10 +378,138 @@ impl Table {
     }
 }
 
-/// The coefficient grid, computed at the first call (all cores; see the module docs).
+/// Columns recomputed when a cached grid is read ([`Table::load`]): (largest channel, y, x),
+/// spread over the grid. Each column is solved independently (continuation along z from
+/// [`Table::compute`]'s start), so recomputing one gives its cached values bit for bit unless
+/// the solver has changed.
+const CHECK_COLUMNS: [(usize, usize, usize); 4] = [(0, 5, 40), (1, 47, 0), (2, 23, 31), (0, 0, 47)];
+
+/// Bytes before the coefficients in a cache file: magic, format version, [`RES`].
+const MAGIC: &[u8; 8] = b"SPRGB2SP";
+const FORMAT: u32 = 1;
+
+/// FNV-1a over bytes (the cache file's checksum; detects a damaged file, not tampering).
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+impl Table {
+    /// The grid as bytes: magic, format, [`RES`], the coefficients (f32, little endian), and
+    /// an FNV-1a checksum of all that precedes it.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(16 + self.c.len() * 12 + 8);
+        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(&FORMAT.to_le_bytes());
+        out.extend_from_slice(&(RES as u32).to_le_bytes());
+        for c in &self.c {
+            for v in c {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        let h = fnv1a(&out);
+        out.extend_from_slice(&h.to_le_bytes());
+        out
+    }
+
+    /// The grid from [`Table::to_bytes`]'s format, checked: size, magic, format, resolution,
+    /// checksum, finite values, and [`CHECK_COLUMNS`] recomputed by this build's solver and
+    /// compared bit for bit (a cache written by another version of the solver is refused).
+    pub fn from_bytes(bytes: &[u8]) -> Result<Table, String> {
+        let n = 3 * RES * RES * RES;
+        let want = 16 + n * 12 + 8;
+        if bytes.len() != want {
+            return Err(format!("{} bytes, expected {want}", bytes.len()));
+        }
+        if &bytes[..8] != MAGIC {
+            return Err("not an RGB-to-spectrum table".into());
+        }
+        let word = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().unwrap());
+        if word(8) != FORMAT || word(12) != RES as u32 {
+            return Err(format!(
+                "format {} at resolution {}, expected {FORMAT} at {RES}",
+                word(8),
+                word(12)
+            ));
+        }
+        let body = &bytes[..want - 8];
+        let stored = u64::from_le_bytes(bytes[want - 8..].try_into().unwrap());
+        if fnv1a(body) != stored {
+            return Err("checksum mismatch (damaged file)".into());
+        }
+        let mut c = Vec::with_capacity(n);
+        for k in 0..n {
+            let v: [f32; 3] = std::array::from_fn(|i| {
+                let at = 16 + (3 * k + i) * 4;
+                f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap())
+            });
+            if !v.iter().all(|x| x.is_finite()) {
+                return Err(format!("coefficient {k} is not finite"));
+            }
+            c.push(v);
+        }
+        let table = Table {
+            z: std::array::from_fn(z_of),
+            c,
+        };
+        for (l, y, x) in CHECK_COLUMNS {
+            let col = solve_column(&table.z, l, y, x);
+            for (j, v) in col {
+                if table.at(l, j, y, x) != v {
+                    return Err("written by another version of the solver".into());
+                }
+            }
+        }
+        Ok(table)
+    }
+
+    /// The grid cached in `dir` (file `rgb2spec-<RES>.bin`) when it is there and valid;
+    /// otherwise computed ([`Table::compute`]) and written there (atomically; a directory
+    /// that cannot be written is only reported). The `String` says what happened.
+    pub fn cached_in(dir: &Path) -> (Table, String) {
+        let path = dir.join(format!("rgb2spec-{RES}.bin"));
+        let why = match std::fs::read(&path) {
+            Ok(bytes) => match Table::from_bytes(&bytes) {
+                Ok(t) => return (t, format!("read {}", path.display())),
+                Err(e) => format!("{}: {e}; recomputed", path.display()),
+            },
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => "computed".to_string(),
+            Err(e) => format!("{}: {e}; recomputed", path.display()),
+        };
+        let t = Table::compute();
+        let tmp = dir.join(format!("rgb2spec-{RES}.bin.{}.tmp", std::process::id()));
+        let written = std::fs::create_dir_all(dir)
+            .and_then(|_| std::fs::write(&tmp, t.to_bytes()))
+            .and_then(|_| std::fs::rename(&tmp, &path));
+        let note = match written {
+            Ok(()) => format!("{why}, cached in {}", path.display()),
+            Err(e) => {
+                let _ = std::fs::remove_file(&tmp);
+                format!("{why}, not cached ({}: {e})", path.display())
+            }
+        };
+        (t, note)
+    }
+}
+
+static CACHE_DIR: OnceLock<Option<PathBuf>> = OnceLock::new();
+static TABLE: OnceLock<Table> = OnceLock::new();
+
+/// Where [`table`] keeps the grid between processes (`None`: nowhere, computed in every
+/// process, the default). Only the first call counts, and only before [`table`] is first
+/// used; returns whether it was taken.
+pub fn set_cache_dir(dir: Option<PathBuf>) -> bool {
+    CACHE_DIR.set(dir).is_ok() && TABLE.get().is_none()
+}
+
+/// The coefficient grid, computed at the first call (all cores; see the module docs), or
+/// read from the cache directory when one was set ([`set_cache_dir`], [`Table::cached_in`]).
 pub fn table() -> &'static Table {
-    static T: OnceLock<Table> = OnceLock::new();
-    T.get_or_init(Table::compute)
+    TABLE.get_or_init(|| match CACHE_DIR.get_or_init(|| None) {
+        Some(dir) => Table::cached_in(dir).0,
+        None => Table::compute(),
+    })
 }
 
 /// Coefficients of a reflectance colour (clamped to [0, 1]); `None` for black.
@@ -529,6 +670,48 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The grid's cache file: written and read back bit for bit; a truncated file, a damaged
+    /// byte, another resolution, and values changed consistently with the checksum (a file
+    /// from another solver) are each refused with a reason; `cached_in` reads a valid file.
+    #[test]
+    fn cache_file_round_trip_and_refusals() {
+        let t = table();
+        let bytes = t.to_bytes();
+        let back = Table::from_bytes(&bytes).unwrap();
+        assert!(back.c == t.c && back.z == t.z);
+        let err = |b: &[u8]| Table::from_bytes(b).err().unwrap();
+        assert!(err(&bytes[..bytes.len() - 1]).contains("bytes"));
+        assert!(err(&[]).contains("bytes"));
+        let mut damaged = bytes.clone();
+        damaged[100_000] ^= 0x10;
+        assert!(err(&damaged).contains("checksum"));
+        let mut res = bytes.clone();
+        res[12] = 47;
+        assert!(err(&res).contains("resolution"));
+        let mut magic = bytes.clone();
+        magic[0] = b'X';
+        assert!(err(&magic).contains("not an RGB-to-spectrum table"));
+        // one coefficient of a checked column changed, checksum made consistent
+        let (l, y, x) = CHECK_COLUMNS[2];
+        let k = ((l * RES + 30) * RES + y) * RES + x;
+        let mut other = bytes.clone();
+        let at = 16 + 3 * k * 4;
+        let v = f32::from_le_bytes(other[at..at + 4].try_into().unwrap());
+        other[at..at + 4].copy_from_slice(&(v * 1.001 + 1e-3).to_le_bytes());
+        let n = other.len();
+        let h = fnv1a(&other[..n - 8]);
+        other[n - 8..].copy_from_slice(&h.to_le_bytes());
+        assert!(err(&other).contains("another version"));
+        // a valid file in a directory is read, not recomputed
+        let dir = std::env::temp_dir().join(format!("specula-rgb2spec-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join(format!("rgb2spec-{RES}.bin")), &bytes).unwrap();
+        let (read, note) = Table::cached_in(&dir);
+        assert!(note.starts_with("read "), "{note}");
+        assert!(read.c == t.c);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// A prepared [`Illuminant`] gives [`illuminant`] of every non-negative multiple of its

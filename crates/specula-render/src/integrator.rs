@@ -322,24 +322,8 @@ impl Scene {
             let Some(hit) = hit else {
                 // escaped: infinitely distant lights
                 if show_emitters {
-                    for &li in &self.infinite_lights {
-                        if let Light::Other(e) = &self.lights[li as usize] {
-                            let le = e.eval_direction(ray.d);
-                            if le.is_black() {
-                                continue;
-                            }
-                            let le = self.infinite_emission_of(li, e, ray.d, le, wl);
-                            let w = if prev_bsdf_delta {
-                                1.0
-                            } else {
-                                mis(
-                                    prev_bsdf_pdf,
-                                    e.pdf_direction(ray.d) * self.light_select_pdf(),
-                                )
-                            };
-                            result += throughput * le * w;
-                        }
-                    }
+                    let bsdf_pdf = (!prev_bsdf_delta).then_some(prev_bsdf_pdf);
+                    result += throughput * self.infinite_radiance(ray.d, bsdf_pdf, 1.0, wl);
                 }
                 break;
             };
@@ -746,7 +730,7 @@ impl Integrator {
 impl Scene {
     /// Radiance of infinitely distant lights seen along `d`, each weighted against BSDF
     /// sampling (`bsdf_pdf`, already scaled) by the power heuristic; `None` weights by 1.
-    fn infinite_radiance(
+    pub(crate) fn infinite_radiance(
         &self,
         d: Vec3,
         bsdf_pdf: Option<f32>,

@@ -328,21 +328,9 @@ impl Scene {
             let show = !(depth == 0 && settings.hide_emitters);
             let Some(hit) = hit else {
                 if show {
-                    for &li in &self.infinite_lights {
-                        if let Light::Other(e) = &self.lights[li as usize] {
-                            let le = e.eval_direction(ray.d);
-                            if le.is_black() {
-                                continue;
-                            }
-                            let le = self.infinite_emission_of(li, e, ray.d, le, wl);
-                            let w = if count_direct {
-                                1.0
-                            } else {
-                                mis(last_pdf, e.pdf_direction(ray.d) * self.light_select_pdf())
-                            };
-                            result += throughput * le * (w / r_u.mean());
-                        }
-                    }
+                    let pdf = (!count_direct).then_some(last_pdf);
+                    let le = self.infinite_radiance(ray.d, pdf, 1.0, wl);
+                    result += throughput * le * (1.0 / r_u.mean());
                 }
                 break;
             };

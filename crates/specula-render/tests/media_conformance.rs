@@ -57,15 +57,7 @@ fn check(name: &str, scene: &Scene, reference: &Path, m: &serde_json::Value) -> 
 /// (but fails on NaN or infinite samples).
 fn add(report: &mut Report, name: &str, j: Judged) {
     if COPLANAR_TIE.contains(&name) {
-        let verdict = if j.ok {
-            "ok"
-        } else {
-            "differs (coplanar tie, not judged)"
-        };
-        report.row(name, &j, verdict);
-        if j.invalid != 0 {
-            report.fail(j.failure);
-        }
+        report.unjudged(name, j, "coplanar tie");
     } else {
         report.judged(name, j);
     }

@@ -156,6 +156,20 @@ impl Report {
         self.rows.push(row);
     }
 
+    /// A rendered scene that is reported but not judged (`reason`): its row, and a failure
+    /// only for NaN or infinite samples.
+    pub fn unjudged(&mut self, name: &str, j: Judged, reason: &str) {
+        let verdict = if j.ok {
+            "ok".to_string()
+        } else {
+            format!("differs (not judged: {reason})")
+        };
+        self.row(name, &j, &verdict);
+        if j.invalid != 0 {
+            self.failures.push(j.failure);
+        }
+    }
+
     /// A row that is not a render (an excepted scene, say).
     pub fn note(&mut self, row: String) {
         self.rows.push(row);

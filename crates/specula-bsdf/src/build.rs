@@ -31,6 +31,66 @@ use crate::props::{BuildError, Props};
 use crate::spectral::dispersion::{Dispersion, Ior};
 use crate::spectrum::Spectrum;
 
+/// The parameters of a dispersive interior index (see the module docs).
+const DISPERSION: &[&str] = &[
+    "dispersion",
+    "abbe_number",
+    "cauchy_a",
+    "cauchy_b",
+    "cauchy_c",
+    "sellmeier_b1",
+    "sellmeier_b2",
+    "sellmeier_b3",
+    "sellmeier_c1",
+    "sellmeier_c2",
+    "sellmeier_c3",
+];
+
+/// `a` followed by `b`, in a constant.
+const fn concat<const N: usize>(a: &[&'static str], b: &[&'static str]) -> [&'static str; N] {
+    assert!(a.len() + b.len() == N);
+    let mut out = [""; N];
+    let mut i = 0;
+    while i < a.len() {
+        out[i] = a[i];
+        i += 1;
+    }
+    while i < N {
+        out[i] = b[i - a.len()];
+        i += 1;
+    }
+    out
+}
+
+const DIELECTRIC: [&str; 16] = concat(
+    &[
+        "int_ior",
+        "ext_ior",
+        "specular_reflectance",
+        "specular_transmittance",
+        "fresnel",
+    ],
+    DISPERSION,
+);
+
+const ROUGHDIELECTRIC: [&str; 23] = concat(
+    &[
+        "int_ior",
+        "ext_ior",
+        "specular_reflectance",
+        "specular_transmittance",
+        "distribution",
+        "alpha",
+        "alpha_u",
+        "alpha_v",
+        "sample_visible",
+        "smith_g1",
+        "fresnel",
+        "multiscatter",
+    ],
+    DISPERSION,
+);
+
 /// Every plugin Specula builds, with its parameters.
 pub const PLUGINS: &[(&str, &[&str])] = &[
     ("diffuse", &["reflectance"]),
@@ -54,76 +114,9 @@ pub const PLUGINS: &[(&str, &[&str])] = &[
             "multiscatter",
         ],
     ),
-    (
-        "dielectric",
-        &[
-            "int_ior",
-            "ext_ior",
-            "specular_reflectance",
-            "specular_transmittance",
-            "fresnel",
-            "dispersion",
-            "abbe_number",
-            "cauchy_a",
-            "cauchy_b",
-            "cauchy_c",
-            "sellmeier_b1",
-            "sellmeier_b2",
-            "sellmeier_b3",
-            "sellmeier_c1",
-            "sellmeier_c2",
-            "sellmeier_c3",
-        ],
-    ),
-    (
-        "thindielectric",
-        &[
-            "int_ior",
-            "ext_ior",
-            "specular_reflectance",
-            "specular_transmittance",
-            "fresnel",
-            "dispersion",
-            "abbe_number",
-            "cauchy_a",
-            "cauchy_b",
-            "cauchy_c",
-            "sellmeier_b1",
-            "sellmeier_b2",
-            "sellmeier_b3",
-            "sellmeier_c1",
-            "sellmeier_c2",
-            "sellmeier_c3",
-        ],
-    ),
-    (
-        "roughdielectric",
-        &[
-            "int_ior",
-            "ext_ior",
-            "specular_reflectance",
-            "specular_transmittance",
-            "distribution",
-            "alpha",
-            "alpha_u",
-            "alpha_v",
-            "sample_visible",
-            "smith_g1",
-            "fresnel",
-            "multiscatter",
-            "dispersion",
-            "abbe_number",
-            "cauchy_a",
-            "cauchy_b",
-            "cauchy_c",
-            "sellmeier_b1",
-            "sellmeier_b2",
-            "sellmeier_b3",
-            "sellmeier_c1",
-            "sellmeier_c2",
-            "sellmeier_c3",
-        ],
-    ),
+    ("dielectric", &DIELECTRIC),
+    ("thindielectric", &DIELECTRIC),
+    ("roughdielectric", &ROUGHDIELECTRIC),
     (
         "plastic",
         &[

@@ -59,9 +59,10 @@
 //!   the Fresnel fit of the compensation represents exactly), with the shape measured from
 //!   the random walk ([`crate::multiscatter::lobe`]) for an isotropic or textured roughness;
 //! - the **specular-transmission** part (weight (1 − metallic)·spec_trans, both sides): the
-//!   rough-dielectric compensation lobes of `roughdielectric` for `eta` (reflection white, as
-//!   the dielectric Fresnel of that part; transmission tinted by √`base_color` and scaled by
-//!   1/η² in radiance transport, as the single-scattering transmission);
+//!   rough-dielectric compensation lobes of `roughdielectric` for `eta`, with their shapes
+//!   measured from the random walk ([`crate::multiscatter::dielectric_lobe`]; reflection
+//!   white, as the dielectric Fresnel of that part; transmission tinted by √`base_color` and
+//!   scaled by 1/η² in radiance transport, as the single-scattering transmission);
 //! - the rest, (1 − metallic)(1 − spec_trans) — the dielectric reflection over the diffuse,
 //!   sheen and clearcoat lobes — is **not** compensated: Burley's diffuse lobe is an empirical
 //!   fit, not the light the rough interface transmits, so no energy balance says what its
@@ -77,7 +78,8 @@
 //! otherwise). A white metal (`metallic=1 base_color=1`) and a clear glass (`spec_trans=1
 //! base_color=1 metallic=0 spec_tint=0`) pass the white furnace (tests); the compensation
 //! lobes are picked with probability (metallic (1 − E(μi)) + (1 − metallic) spec_trans
-//! (1 − E_d(μi))), at most 0.9, and cosine-sampled.
+//! (1 − E_d(μi))), at most 0.9; the metallic one is cosine-sampled, the dielectric ones are
+//! sampled from their table.
 //!
 //! Spectral mode: the tints (`spec_tint`, `sheen_tint`) divide `base_color` by the
 //! luminance Mitsuba's spectral variants use, per wavelength (`tint_luminance`: the mean of
@@ -148,9 +150,9 @@ pub struct PrincipledMs {
 struct MsState {
     /// Table roughness √(αu αv).
     alpha: f32,
-    /// Probability of sampling a compensation lobe, and of it reflecting.
+    /// Probability of sampling a compensation lobe, and of it being the metallic one.
     p: f32,
-    refl: f32,
+    metal: f32,
 }
 
 /// (1 − c)⁵ clamped, Schlick's weight.
@@ -452,25 +454,18 @@ impl Principled {
         } else {
             0.0
         };
-        let (w_d, refl_d) = match &ms.dielectric {
+        let w_d = match &ms.dielectric {
             Some(d) if l.bsdf() > 0.0 => {
                 let q = d.at(alpha);
-                (
-                    l.bsdf() * (1.0 - d.e(&q, front, wi.z.abs())),
-                    d.reflect_fraction(&q, front),
-                )
+                l.bsdf() * (1.0 - d.e(&q, front, wi.z.abs()))
             }
-            _ => (0.0, 1.0),
+            _ => 0.0,
         };
         let w = w_m + w_d;
         MsState {
             alpha,
             p: w.clamp(0.0, 0.9),
-            refl: if w > 0.0 {
-                (w_m + w_d * refl_d) / w
-            } else {
-                1.0
-            },
+            metal: if w > 0.0 { w_m / w } else { 1.0 },
         }
     }
 
@@ -669,8 +664,18 @@ impl Principled {
             return (v, p);
         }
         let st = self.ms_state(ms, &l, wi);
-        let side = if reflect { st.refl } else { 1.0 - st.refl };
-        let pdf = (1.0 - st.p) * p + st.p * side * co.abs() * FRAC_1_PI;
+        // the metallic lobe cosine-sampled (front, reflection), the dielectric ones from
+        // their table
+        let p_metal = if reflect && front {
+            co.abs() * FRAC_1_PI
+        } else {
+            0.0
+        };
+        let p_diel = match &ms.dielectric {
+            Some(d) if st.metal < 1.0 => d.lobe_eval(&d.at(st.alpha), wi, wo).1,
+            _ => 0.0,
+        };
+        let pdf = (1.0 - st.p) * p + st.p * (st.metal * p_metal + (1.0 - st.metal) * p_diel);
         if !VALUE {
             return (v, pdf);
         }
@@ -818,18 +823,22 @@ impl BsdfModel for Principled {
         if let Some(ms) = &self.multiscatter {
             let st = self.ms_state(ms, &l, wi);
             if u1 < st.p {
-                // a compensation lobe: cosine-distributed on wi's side or the other
-                let up = warp::square_to_cosine_hemisphere(u2);
-                let (wo, lobe, eta) = if u1 < st.p * st.refl {
-                    (
-                        if front { up } else { -up },
-                        LobeFlags::GLOSSY_REFLECTION,
-                        1.0,
-                    )
+                // a compensation lobe: the metallic one cosine-distributed, the dielectric
+                // ones from their table
+                let u = u1 / st.p;
+                let wo = match &ms.dielectric {
+                    Some(d) if u >= st.metal => {
+                        let u = ((u - st.metal) / (1.0 - st.metal)).clamp(0.0, 1.0);
+                        d.sample_lobe(&d.at(st.alpha), wi, u, u2)
+                    }
+                    _ => warp::square_to_cosine_hemisphere(u2),
+                };
+                let (lobe, eta) = if wi.z * wo.z > 0.0 {
+                    (LobeFlags::GLOSSY_REFLECTION, 1.0)
                 } else if front {
-                    (-up, LobeFlags::GLOSSY_TRANSMISSION, self.eta)
+                    (LobeFlags::GLOSSY_TRANSMISSION, self.eta)
                 } else {
-                    (up, LobeFlags::GLOSSY_TRANSMISSION, 1.0 / self.eta)
+                    (LobeFlags::GLOSSY_TRANSMISSION, 1.0 / self.eta)
                 };
                 let (value, pdf) = self.eval_pdf_impl::<true>(ctx, sp, wi, wo);
                 if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {

@@ -257,25 +257,43 @@ fn conductor_lobe_shape_agrees_with_the_walk() {
 }
 
 /// The shape of the compensated dielectric lobes against the walk (the measured lobes of
-/// `multiscatter::dielectric_lobe`), from outside and inside, η on and off the table's nodes:
-/// the total-variation distance between the binned lobes (both sides) at most 0.02 above its
-/// value for identical lobes (`lobe_noise`, 400 000 samples), the albedo (R + T) within 2 % and
-/// the transmitted part within 0.02 of the walk's. Kulla–Conty's separable lobes were
-/// KC_TV above each case (the survey `dielectric_survey`, noise 0.01–0.02), beyond this bound.
+/// `multiscatter::dielectric_lobe`), from outside and inside, η on (1.5) and off (1.33, 2.4)
+/// the table's nodes, 400 000 samples each: the total-variation distance between the binned
+/// lobes (both sides) at most 0.02 above its value for identical lobes (`lobe_noise`), the
+/// albedo (R + T) within 2 % and the transmitted part within 0.02 of the walk's. Kulla–Conty's
+/// separable lobes were 0.065–0.19 here (`dielectric_survey`, noise 0.007–0.02), beyond this
+/// bound. Where the separable single-scattering model transmits more than the walk (rough, grazing
+/// from outside) no non-negative lobe comes closer than the negative part N of the deficit
+/// (`negative_deficit`); there the distance must be within 0.02 of max(N, noise): GGX α = 1,
+/// η = 1.5, 85°: N ≈ 0.18, Kulla–Conty 0.32.
 #[test]
 fn dielectric_lobe_shape_agrees_with_the_walk() {
+    use specula_bsdf::models::microsurface_walk::walk_for;
+    use specula_bsdf::multiscatter::dielectric_lobe::negative_deficit;
     for (d, a, eta, t) in [
-        ("ggx", 1.0f32, "1.5", 75.0f32),
-        ("ggx", 0.6, "1.33", 85.0),
+        ("ggx", 1.0f32, "1.5", 45.0f32),
         ("ggx", 1.0, "1.5", 135.0),
-        ("beckmann", 1.0, "1.5", 85.0),
+        ("ggx", 1.0, "1.5", 180.0),
+        ("ggx", 0.6, "1.33", 135.0),
+        ("ggx", 0.6, "1.5", 105.0),
+        ("ggx", 0.3, "1.33", 105.0),
+        ("ggx", 0.1, "2.4", 85.0),
+        ("ggx", 1.0, "1.5", 85.0),
         ("beckmann", 0.6, "1.33", 135.0),
+        ("beckmann", 1.0, "1.5", 135.0),
+        ("beckmann", 0.3, "1.5", 105.0),
     ] {
         let spec =
             format!("roughdielectric distribution={d} alpha={a} int_ior={eta} multiscatter=true");
         let r = agreement(&spec, t, 400_000);
+        let w = walk_for(&parse_spec(&spec).unwrap()).unwrap();
+        let n = negative_deficit(&w, check::suite::incidence(t), 400_000, 19);
+        println!("  negative part of the deficit (the bound): {n:.4}");
         assert!(r.lobe_noise < 0.02, "{spec} θi={t}: {r:?}");
-        assert!(r.lobe_tv < r.lobe_noise + 0.02, "{spec} θi={t}: {r:?}");
+        assert!(
+            r.lobe_tv < r.lobe_noise.max(n) + 0.02,
+            "{spec} θi={t}: bound {n}, {r:?}"
+        );
         assert!(r.albedo_rel < 0.02, "{spec} θi={t}: {r:?}");
         assert!((r.model_t - r.walk_t).abs() < 0.02, "{spec} θi={t}: {r:?}");
     }

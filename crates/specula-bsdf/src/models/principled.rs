@@ -484,7 +484,8 @@ impl Principled {
         }
     }
 
-    /// The compensation lobes' value (without cosine) for (wi, wo).
+    /// The compensation lobes' value (without cosine) for (wi, wo); `diel`: the dielectric
+    /// lobe's value ([`DielectricEnergy::lobe_eval`], importance transport) when it exists.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     fn ms_value(
@@ -494,6 +495,7 @@ impl Principled {
         spectral: bool,
         l: &Local,
         st: &MsState,
+        diel: Option<f32>,
         wi: Vec3,
         wo: Vec3,
     ) -> Spectrum {
@@ -525,20 +527,18 @@ impl Principled {
             };
             v += lobe * l.metallic;
         }
-        if let Some(d) = &ms.dielectric {
+        if let Some(f) = diel {
             let bsdf = l.bsdf();
             if bsdf > 0.0 {
-                let q = d.at(st.alpha);
-                let (fr, ft) = d.lobes(&q, wi, wo);
                 if wi.z * wo.z > 0.0 {
-                    v += Spectrum::splat(bsdf * fr);
+                    v += Spectrum::splat(bsdf * f);
                 } else {
                     let scale = match ctx.mode {
                         TransportMode::Radiance if front => 1.0 / (self.eta * self.eta),
                         TransportMode::Radiance => self.eta * self.eta,
                         TransportMode::Importance => 1.0,
                     };
-                    v += l.base.map(f32::sqrt) * (bsdf * ft * scale);
+                    v += l.base.map(f32::sqrt) * (bsdf * f * scale);
                 }
             }
         }
@@ -671,16 +671,22 @@ impl Principled {
         } else {
             0.0
         };
-        let p_diel = match &ms.dielectric {
-            Some(d) if st.metal < 1.0 => d.lobe_eval(&d.at(st.alpha), wi, wo).1,
-            _ => 0.0,
+        // the dielectric lobe's value and density (one table lookup for both)
+        let diel = match &ms.dielectric {
+            Some(d) if l.bsdf() > 0.0 => Some(d.lobe_eval(&d.at(st.alpha), wi, wo)),
+            _ => None,
         };
+        let p_diel = diel.map_or(0.0, |(_, p)| p);
         let pdf = (1.0 - st.p) * p + st.p * (st.metal * p_metal + (1.0 - st.metal) * p_diel);
         if !VALUE {
             return (v, pdf);
         }
         let spectral = sp.wavelengths.is_some();
-        (v + self.ms_value(ms, ctx, spectral, &l, &st, wi, wo), pdf)
+        let diel = diel.map(|(f, _)| f);
+        (
+            v + self.ms_value(ms, ctx, spectral, &l, &st, diel, wi, wo),
+            pdf,
+        )
     }
 
     /// Value and pdf of Mitsuba's model (single scattering).

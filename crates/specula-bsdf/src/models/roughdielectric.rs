@@ -232,11 +232,7 @@ impl BsdfModel for RoughDielectric {
             if wi.z * wo.z > 0.0 {
                 (wo, LobeFlags::GLOSSY_REFLECTION, 1.0)
             } else {
-                let eta = if wi.z > 0.0 {
-                    self.eta
-                } else {
-                    1.0 / self.eta
-                };
+                let eta = if wi.z > 0.0 { self.eta } else { 1.0 / self.eta };
                 (wo, LobeFlags::GLOSSY_TRANSMISSION, eta)
             }
         } else {

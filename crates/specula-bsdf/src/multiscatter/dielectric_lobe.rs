@@ -24,7 +24,9 @@
 //! `generate_dielectric_lobe_table` of `tests/multiscatter.rs`, which writes
 //! `dielectric_lobe.bin` next to this file): white dielectric walks at [`DIEL_ETAS`] ×
 //! [`DIEL_ALPHAS`] nodes (η uniform-ish in ln η over [1.05, 3], α uniform in √α), from μi
-//! distributed ∝ μ within each bin of each side, fixed seeds. Every walk that scatters twice or
+//! distributed ∝ μ within each bin of each side, fixed seeds (150 000 walks per (node, incident
+//! bin) for GGX, 50 000 for Beckmann, whose walk costs ~10× more; ≈ 2 + 2.5 minutes of two
+//! cores). Every walk that scatters twice or
 //! more counts with weight 1; one that leaves after its first event counts with the part of the
 //! walk's (height-correlated) single scattering that the model's separable G1(ωi)G1(ωo) does
 //! not have: 1 − G1(ωo)/P, with P the walk's probability of escaping after the event —
@@ -63,8 +65,7 @@
 //! table and internal reflectance) stays exact.
 
 use super::lobe::{
-    azimuth, bin_m, mu_bin, mu_edges, phi_bin, t_edges, FastBins, A_C, KC_BLEND, LOBE_MU,
-    LOBE_PHI,
+    azimuth, bin_m, mu_bin, mu_edges, phi_bin, t_edges, FastBins, A_C, KC_BLEND, LOBE_MU, LOBE_PHI,
 };
 use super::{alpha_node, gauss_legendre, parallel_rows, DielectricEnergy};
 use crate::microfacet::MicrofacetType;
@@ -755,7 +756,10 @@ mod tests {
                 let (lo, hi) = splits
                     .iter()
                     .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
-                assert!(hi - lo > 0.01, "{kind:?} η={eta} α={alpha}: split {splits:?}");
+                assert!(
+                    hi - lo > 0.01,
+                    "{kind:?} η={eta} α={alpha}: split {splits:?}"
+                );
                 // reciprocity
                 let q = e.at(alpha);
                 let mut rng = crate::rng::Pcg32::new(3, 4);
@@ -786,12 +790,8 @@ mod tests {
             (MicrofacetType::Ggx, 1.5, 0.7, false, -0.4),
             (MicrofacetType::Beckmann, 2.4, 0.45, true, 0.8),
         ] {
-            let e = DielectricEnergy::get(
-                kind,
-                eta,
-                FresnelMode::Exact,
-                (!textured).then_some(alpha),
-            );
+            let e =
+                DielectricEnergy::get(kind, eta, FresnelMode::Exact, (!textured).then_some(alpha));
             let lt = &e.lobe;
             let wi = Vec3::new((1.0 - mu_i * mu_i).sqrt(), 0.0, mu_i);
             let n = 400_000;

@@ -129,7 +129,7 @@
 //!   the deficit f_walk − f_ss is negative over part of the transmitted lobe, and no
 //!   non-negative compensation lobe comes closer to the walk than that negative part N
 //!   ([`dielectric_lobe::negative_deficit`]): GGX α = 1, η = 1.5 at 85° has N = 0.177 and
-//!   distance 0.182 (Kulla–Conty 0.323), at 75° N = 0.09, distance 0.108 (0.219); GGX
+//!   distance 0.182 (Kulla–Conty 0.323), at 75° N = 0.104, distance 0.108 (0.219); GGX
 //!   α = 0.6, η = 1.33 at 85° N = 0.149, distance 0.164 (0.323). Only a height-correlated
 //!   single-scattering model could close that gap. The transmitted part is within 0.025 of
 //!   the walk's except from inside at 105° with α = 1 (GGX 0.053–0.070, Beckmann 0.027, where

@@ -507,7 +507,7 @@ pub struct Agreement {
     pub lobe_noise: f64,
 }
 
-fn lobe_bin(w: Vec3) -> usize {
+pub(crate) fn lobe_bin(w: Vec3) -> usize {
     let hemi = (w.z < 0.0) as usize;
     let mu = ((w.z.abs() * LOBE_MU_BINS as f32) as usize).min(LOBE_MU_BINS - 1);
     let phi = w.y.atan2(w.x) / (2.0 * std::f32::consts::PI) + 0.5;

@@ -59,9 +59,10 @@
 //!   the Fresnel fit of the compensation represents exactly), with the shape measured from
 //!   the random walk ([`crate::multiscatter::lobe`]) for an isotropic or textured roughness;
 //! - the **specular-transmission** part (weight (1 − metallic)·spec_trans, both sides): the
-//!   rough-dielectric compensation lobes of `roughdielectric` for `eta` (reflection white, as
-//!   the dielectric Fresnel of that part; transmission tinted by √`base_color` and scaled by
-//!   1/η² in radiance transport, as the single-scattering transmission);
+//!   rough-dielectric compensation lobes of `roughdielectric` for `eta`, with their shapes
+//!   measured from the random walk ([`crate::multiscatter::dielectric_lobe`]; reflection
+//!   white, as the dielectric Fresnel of that part; transmission tinted by √`base_color` and
+//!   scaled by 1/η² in radiance transport, as the single-scattering transmission);
 //! - the rest, (1 − metallic)(1 − spec_trans) — the dielectric reflection over the diffuse,
 //!   sheen and clearcoat lobes — is **not** compensated: Burley's diffuse lobe is an empirical
 //!   fit, not the light the rough interface transmits, so no energy balance says what its
@@ -77,7 +78,8 @@
 //! otherwise). A white metal (`metallic=1 base_color=1`) and a clear glass (`spec_trans=1
 //! base_color=1 metallic=0 spec_tint=0`) pass the white furnace (tests); the compensation
 //! lobes are picked with probability (metallic (1 − E(μi)) + (1 − metallic) spec_trans
-//! (1 − E_d(μi))), at most 0.9, and cosine-sampled.
+//! (1 − E_d(μi))), at most 0.9; the metallic one is cosine-sampled, the dielectric ones are
+//! sampled from their table.
 //!
 //! Spectral mode: the tints (`spec_tint`, `sheen_tint`) divide `base_color` by the
 //! luminance Mitsuba's spectral variants use, per wavelength (`tint_luminance`: the mean of
@@ -148,9 +150,9 @@ pub struct PrincipledMs {
 struct MsState {
     /// Table roughness √(αu αv).
     alpha: f32,
-    /// Probability of sampling a compensation lobe, and of it reflecting.
+    /// Probability of sampling a compensation lobe, and of it being the metallic one.
     p: f32,
-    refl: f32,
+    metal: f32,
 }
 
 /// (1 − c)⁵ clamped, Schlick's weight.
@@ -452,25 +454,18 @@ impl Principled {
         } else {
             0.0
         };
-        let (w_d, refl_d) = match &ms.dielectric {
+        let w_d = match &ms.dielectric {
             Some(d) if l.bsdf() > 0.0 => {
                 let q = d.at(alpha);
-                (
-                    l.bsdf() * (1.0 - d.e(&q, front, wi.z.abs())),
-                    d.reflect_fraction(&q, front),
-                )
+                l.bsdf() * (1.0 - d.e(&q, front, wi.z.abs()))
             }
-            _ => (0.0, 1.0),
+            _ => 0.0,
         };
         let w = w_m + w_d;
         MsState {
             alpha,
             p: w.clamp(0.0, 0.9),
-            refl: if w > 0.0 {
-                (w_m + w_d * refl_d) / w
-            } else {
-                1.0
-            },
+            metal: if w > 0.0 { w_m / w } else { 1.0 },
         }
     }
 
@@ -489,7 +484,8 @@ impl Principled {
         }
     }
 
-    /// The compensation lobes' value (without cosine) for (wi, wo).
+    /// The compensation lobes' value (without cosine) for (wi, wo); `diel`: the dielectric
+    /// lobe's value ([`DielectricEnergy::lobe_eval`], importance transport) when it exists.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     fn ms_value(
@@ -499,6 +495,7 @@ impl Principled {
         spectral: bool,
         l: &Local,
         st: &MsState,
+        diel: Option<f32>,
         wi: Vec3,
         wo: Vec3,
     ) -> Spectrum {
@@ -530,20 +527,18 @@ impl Principled {
             };
             v += lobe * l.metallic;
         }
-        if let Some(d) = &ms.dielectric {
+        if let Some(f) = diel {
             let bsdf = l.bsdf();
             if bsdf > 0.0 {
-                let q = d.at(st.alpha);
-                let (fr, ft) = d.lobes(&q, wi, wo);
                 if wi.z * wo.z > 0.0 {
-                    v += Spectrum::splat(bsdf * fr);
+                    v += Spectrum::splat(bsdf * f);
                 } else {
                     let scale = match ctx.mode {
                         TransportMode::Radiance if front => 1.0 / (self.eta * self.eta),
                         TransportMode::Radiance => self.eta * self.eta,
                         TransportMode::Importance => 1.0,
                     };
-                    v += l.base.map(f32::sqrt) * (bsdf * ft * scale);
+                    v += l.base.map(f32::sqrt) * (bsdf * f * scale);
                 }
             }
         }
@@ -669,13 +664,29 @@ impl Principled {
             return (v, p);
         }
         let st = self.ms_state(ms, &l, wi);
-        let side = if reflect { st.refl } else { 1.0 - st.refl };
-        let pdf = (1.0 - st.p) * p + st.p * side * co.abs() * FRAC_1_PI;
+        // the metallic lobe cosine-sampled (front, reflection), the dielectric ones from
+        // their table
+        let p_metal = if reflect && front {
+            co.abs() * FRAC_1_PI
+        } else {
+            0.0
+        };
+        // the dielectric lobe's value and density (one table lookup for both)
+        let diel = match &ms.dielectric {
+            Some(d) if l.bsdf() > 0.0 => Some(d.lobe_eval(&d.at(st.alpha), wi, wo)),
+            _ => None,
+        };
+        let p_diel = diel.map_or(0.0, |(_, p)| p);
+        let pdf = (1.0 - st.p) * p + st.p * (st.metal * p_metal + (1.0 - st.metal) * p_diel);
         if !VALUE {
             return (v, pdf);
         }
         let spectral = sp.wavelengths.is_some();
-        (v + self.ms_value(ms, ctx, spectral, &l, &st, wi, wo), pdf)
+        let diel = diel.map(|(f, _)| f);
+        (
+            v + self.ms_value(ms, ctx, spectral, &l, &st, diel, wi, wo),
+            pdf,
+        )
     }
 
     /// Value and pdf of Mitsuba's model (single scattering).
@@ -818,18 +829,22 @@ impl BsdfModel for Principled {
         if let Some(ms) = &self.multiscatter {
             let st = self.ms_state(ms, &l, wi);
             if u1 < st.p {
-                // a compensation lobe: cosine-distributed on wi's side or the other
-                let up = warp::square_to_cosine_hemisphere(u2);
-                let (wo, lobe, eta) = if u1 < st.p * st.refl {
-                    (
-                        if front { up } else { -up },
-                        LobeFlags::GLOSSY_REFLECTION,
-                        1.0,
-                    )
+                // a compensation lobe: the metallic one cosine-distributed, the dielectric
+                // ones from their table
+                let u = u1 / st.p;
+                let wo = match &ms.dielectric {
+                    Some(d) if u >= st.metal => {
+                        let u = ((u - st.metal) / (1.0 - st.metal)).clamp(0.0, 1.0);
+                        d.sample_lobe(&d.at(st.alpha), wi, u, u2)
+                    }
+                    _ => warp::square_to_cosine_hemisphere(u2),
+                };
+                let (lobe, eta) = if wi.z * wo.z > 0.0 {
+                    (LobeFlags::GLOSSY_REFLECTION, 1.0)
                 } else if front {
-                    (-up, LobeFlags::GLOSSY_TRANSMISSION, self.eta)
+                    (LobeFlags::GLOSSY_TRANSMISSION, self.eta)
                 } else {
-                    (up, LobeFlags::GLOSSY_TRANSMISSION, 1.0 / self.eta)
+                    (LobeFlags::GLOSSY_TRANSMISSION, 1.0 / self.eta)
                 };
                 let (value, pdf) = self.eval_pdf_impl::<true>(ctx, sp, wi, wo);
                 if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {

@@ -6,9 +6,11 @@
 //! Transmission: f_t = |wi·m||wo·m| / (|cosθi||cosθo|) · η²(1−F)·D·G / (wi·m + η wo·m)²,
 //! scaled by 1/η² when transporting radiance (the solid-angle compression at the interface).
 //!
-//! Specula option `multiscatter` (default `false`, Mitsuba's model): add Kulla & Conty's
-//! reciprocal energy-compensation lobes (reflection and transmission, from both sides), so
-//! that a white rough interface scatters R + T = 1 at every roughness and incidence (see
+//! Specula option `multiscatter` (default `false`, Mitsuba's model): add reciprocal
+//! energy-compensation lobes (reflection and transmission, from both sides) after Kulla &
+//! Conty, with shapes measured from the random walk on the microsurface
+//! ([`crate::multiscatter::dielectric_lobe`], sampled from their table), so that a white rough
+//! interface scatters R + T = 1 at every roughness and incidence (see
 //! [`crate::multiscatter`]; the tables depend on η and are built with the material).
 //!
 //! **Dispersion** (Specula's `dispersion`, `abbe_number`, `cauchy_*`, `sellmeier_*`
@@ -31,7 +33,6 @@ use crate::multiscatter::{table_alpha, DielectricEnergy};
 use crate::spectral::dispersion::{channel_etas, Dispersion};
 use crate::spectrum::Spectrum;
 use glam::{Vec2, Vec3};
-use std::f32::consts::FRAC_1_PI;
 use std::sync::Arc;
 
 #[derive(Clone, Debug)]
@@ -110,7 +111,9 @@ impl RoughDielectric {
         self
     }
 
-    /// The single-scattering model plus the compensation lobes.
+    /// The single-scattering model plus the compensation lobes: the measured shapes of
+    /// [`crate::multiscatter::dielectric_lobe`], picked with probability 1 − E(μi) and
+    /// sampled from their table.
     fn eval_pdf_ms(
         &self,
         ms: &DielectricEnergy,
@@ -123,37 +126,32 @@ impl RoughDielectric {
         if wi.z == 0.0 || wo.z == 0.0 {
             return (v, p);
         }
-        let (p_ms, refl) = self.ms_probs(ms, sp, wi);
-        let q = ms.at(table_alpha(self.alpha_u.eval(sp), self.alpha_v.eval(sp)));
-        let (fr, ft) = ms.lobes(&q, wi, wo);
-        let cos_o = wo.z.abs() * FRAC_1_PI;
+        let (q, p_ms) = self.ms_prob(ms, sp, wi);
+        let (f, p_lobe) = ms.lobe_eval(&q, wi, wo);
+        let pdf = (1.0 - p_ms) * p + p_ms * p_lobe;
         if wi.z * wo.z > 0.0 {
-            (
-                v + self.specular_reflectance.eval(sp) * fr,
-                (1.0 - p_ms) * p + p_ms * refl * cos_o,
-            )
+            (v + self.specular_reflectance.eval(sp) * f, pdf)
         } else {
             let scale = match ctx.mode {
                 TransportMode::Radiance if wi.z > 0.0 => 1.0 / (self.eta * self.eta),
                 TransportMode::Radiance => self.eta * self.eta,
                 TransportMode::Importance => 1.0,
             };
-            (
-                v + self.specular_transmittance.eval(sp) * (ft * scale),
-                (1.0 - p_ms) * p + p_ms * (1.0 - refl) * cos_o,
-            )
+            (v + self.specular_transmittance.eval(sp) * (f * scale), pdf)
         }
     }
 
-    /// The probability of sampling the compensation, and of it reflecting.
+    /// The compensation's quantities at this point and the probability of sampling it.
     #[inline]
-    fn ms_probs(&self, ms: &DielectricEnergy, sp: &ShadingPoint, wi: Vec3) -> (f32, f32) {
+    fn ms_prob(
+        &self,
+        ms: &DielectricEnergy,
+        sp: &ShadingPoint,
+        wi: Vec3,
+    ) -> (crate::multiscatter::DielectricMs, f32) {
         let q = ms.at(table_alpha(self.alpha_u.eval(sp), self.alpha_v.eval(sp)));
-        let outside = wi.z > 0.0;
-        (
-            1.0 - ms.e(&q, outside, wi.z),
-            ms.reflect_fraction(&q, outside),
-        )
+        let p = 1.0 - ms.e(&q, wi.z > 0.0, wi.z);
+        (q, p)
     }
 
     #[inline]
@@ -228,18 +226,13 @@ impl BsdfModel for RoughDielectric {
         if wi.z == 0.0 {
             return None;
         }
-        let (p_ms, refl) = self.ms_probs(ms, sp, wi);
+        let (q, p_ms) = self.ms_prob(ms, sp, wi);
         let (wo, lobe, eta) = if u1 < p_ms {
-            let up = crate::warp::square_to_cosine_hemisphere(u2);
-            if u1 < p_ms * refl {
-                let wo = if wi.z > 0.0 { up } else { -up };
+            let wo = ms.sample_lobe(&q, wi, u1 / p_ms, u2);
+            if wi.z * wo.z > 0.0 {
                 (wo, LobeFlags::GLOSSY_REFLECTION, 1.0)
             } else {
-                let (wo, eta) = if wi.z > 0.0 {
-                    (-up, self.eta)
-                } else {
-                    (up, 1.0 / self.eta)
-                };
+                let eta = if wi.z > 0.0 { self.eta } else { 1.0 / self.eta };
                 (wo, LobeFlags::GLOSSY_TRANSMISSION, eta)
             }
         } else {

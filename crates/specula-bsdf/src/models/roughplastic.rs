@@ -5,13 +5,16 @@
 //! 64-entry table over cosθ and interpolated linearly, and its inter-reflections are summed with the coat's hemispherical
 //! internal reflectance, exactly as Mitsuba does so that renders match.
 //!
-//! Specula option `multiscatter` (default `false`, Mitsuba's model): the coat becomes Kulla &
-//! Conty's energy-compensated rough interface ([`crate::multiscatter`]). The energy its single
-//! scattering loses, 1 − E(μ), is split as for `roughdielectric`: a reflected part is added as
-//! a compensation lobe to the coat's glossy reflection, the transmitted part enters the base
-//! (it is added to the coat transmittance T(μ)), and the internal reflectance is the one that
-//! reciprocity implies, 1 − (2∫T(μ)μ dμ)/η², so that a white base under the coat reflects all
-//! the light (white furnace 1 ± 0.5 %).
+//! Specula option `multiscatter` (default `false`, Mitsuba's model): the coat becomes an
+//! energy-compensated rough interface after Kulla & Conty ([`crate::multiscatter`]). The
+//! energy its single scattering loses, 1 − E(μ), is split by the hemispherically averaged
+//! fraction of `roughdielectric`'s measured lobes: the reflected part is added as a
+//! compensation lobe to the coat's glossy reflection, with the outside reflection shape
+//! measured from the random walk ([`crate::multiscatter::DielectricEnergy::coat_lobe`];
+//! cosine-sampled with the diffuse base), the transmitted part enters the base (it is added to
+//! the coat transmittance T(μ); the base has no shape to give it), and the internal
+//! reflectance is the one that reciprocity implies, 1 − (2∫T(μ)μ dμ)/η², so that a white base
+//! under the coat reflects all the light (white furnace 1 ± 0.5 %).
 
 use crate::bsdf::*;
 use crate::frame::{reflect, refract};
@@ -280,11 +283,13 @@ impl RoughPlastic {
         self
     }
 
-    /// The coat's compensation lobe (reflection, outside) and its energy for `wi`.
+    /// The coat's compensation lobe (reflection, outside; the measured shape normalised to
+    /// the averaged reflected fraction, [`DielectricEnergy::coat_lobe`]) and its energy for
+    /// `wi`.
     #[inline]
     fn ms_lobe(&self, ms: &DielectricEnergy, wi: Vec3, wo: Vec3) -> (f32, f32) {
         let q = ms.at(self.alpha);
-        let (fr, _) = ms.lobes(&q, wi, wo);
+        let fr = ms.coat_lobe(&q, wi, wo);
         let energy = ms.reflect_fraction(&q, true) * (1.0 - ms.e(&q, true, wi.z));
         (fr, energy)
     }

@@ -55,17 +55,17 @@ pub const LOBE_PHI: usize = 16;
 const ROW: usize = LOBE_MU * LOBE_PHI;
 const SLICE: usize = LOBE_MU * ROW;
 /// Weight of Kulla–Conty's constant shape blended into the measured one.
-const KC_BLEND: f64 = 0.01;
+pub(crate) const KC_BLEND: f64 = 0.01;
 
 /// The μ bin of a cosine.
 #[inline]
-fn mu_bin(mu: f32) -> usize {
+pub(crate) fn mu_bin(mu: f32) -> usize {
     let k = (mu.clamp(0.0, 1.0).acos() * (2.0 * FRAC_1_PI * LOBE_MU as f32)) as usize;
     LOBE_MU - 1 - k.min(LOBE_MU - 1)
 }
 
 /// The μ range of bin `b`.
-fn mu_edges(b: usize) -> (f64, f64) {
+pub(crate) fn mu_edges(b: usize) -> (f64, f64) {
     let step = std::f64::consts::FRAC_PI_2 / LOBE_MU as f64;
     let lo = ((LOBE_MU - b) as f64 * step).cos().max(0.0);
     let hi = if b == LOBE_MU - 1 {
@@ -77,23 +77,23 @@ fn mu_edges(b: usize) -> (f64, f64) {
 }
 
 /// The range of t = √μ of bin `b`.
-fn t_edges(b: usize) -> (f64, f64) {
+pub(crate) fn t_edges(b: usize) -> (f64, f64) {
     let (a, c) = mu_edges(b);
     (a.sqrt(), c.sqrt())
 }
 
 /// ∫ μ dμ over bin `b`.
-fn bin_m(b: usize) -> f64 {
+pub(crate) fn bin_m(b: usize) -> f64 {
     let (a, c) = mu_edges(b);
     0.5 * (c * c - a * a)
 }
 
 /// Azimuth measure of a folded Δφ bin (both signs).
-const A_C: f64 = 2.0 * std::f64::consts::PI / LOBE_PHI as f64;
+pub(crate) const A_C: f64 = 2.0 * std::f64::consts::PI / LOBE_PHI as f64;
 
 /// The cosine and sine of the azimuth of `w` ((1, 0) when it has none).
 #[inline]
-fn azimuth(w: Vec3) -> (f32, f32) {
+pub(crate) fn azimuth(w: Vec3) -> (f32, f32) {
     let l2 = w.x * w.x + w.y * w.y;
     if l2 > 1e-20 {
         let inv = l2.sqrt().recip();
@@ -105,7 +105,7 @@ fn azimuth(w: Vec3) -> (f32, f32) {
 
 /// The Δφ bin of (wi, wo).
 #[inline]
-fn phi_bin(wi: Vec3, wo: Vec3) -> usize {
+pub(crate) fn phi_bin(wi: Vec3, wo: Vec3) -> usize {
     let (ci, si) = azimuth(wi);
     let (co, so) = azimuth(wo);
     let cos = (ci * co + si * so).clamp(-1.0, 1.0);
@@ -271,10 +271,48 @@ pub struct LobeTable {
     cdf: Vec<f32>,
     /// Whether the shape came from the measurement (false: Kulla–Conty's 1/π).
     pub measured: bool,
-    /// Lower μ edges of bins 1.. (ascending), and cos of the Δφ edges 1.. (descending): the
-    /// bins by comparison, without `acos`.
+    bins: FastBins,
+}
+
+/// The μ and Δφ bins by comparisons, without `acos`: the lower μ edges of bins 1..
+/// (ascending), and the cosines of the Δφ edges 1.. (descending).
+#[derive(Debug, Clone)]
+pub(crate) struct FastBins {
     mu_lo: [f32; LOBE_MU - 1],
     phi_cos: [f32; LOBE_PHI - 1],
+}
+
+impl FastBins {
+    pub(crate) fn new() -> Self {
+        FastBins {
+            mu_lo: std::array::from_fn(|b| mu_edges(b + 1).0 as f32),
+            phi_cos: std::array::from_fn(|c| {
+                ((c + 1) as f64 * std::f64::consts::PI / LOBE_PHI as f64).cos() as f32
+            }),
+        }
+    }
+
+    /// The μ bin of a cosine ([`mu_bin`] by comparisons).
+    #[inline]
+    pub(crate) fn mu(&self, mu: f32) -> usize {
+        self.mu_lo.partition_point(|&e| e <= mu)
+    }
+
+    /// The Δφ bin of (wi, wo) ([`phi_bin`] by comparisons).
+    #[inline]
+    pub(crate) fn phi(&self, wi: Vec3, wo: Vec3) -> usize {
+        let li2 = wi.x * wi.x + wi.y * wi.y;
+        let lo2 = wo.x * wo.x + wo.y * wo.y;
+        if lo2 <= 1e-20 {
+            return 0;
+        }
+        let cos = if li2 <= 1e-20 {
+            wo.x / lo2.sqrt()
+        } else {
+            (wi.x * wo.x + wi.y * wo.y) / (li2 * lo2).sqrt()
+        };
+        self.phi_cos.partition_point(|&e| cos < e)
+    }
 }
 
 impl LobeTable {
@@ -389,10 +427,7 @@ impl LobeTable {
             })
             .collect();
         LobeTable {
-            mu_lo: std::array::from_fn(|b| mu_edges(b + 1).0 as f32),
-            phi_cos: std::array::from_fn(|c| {
-                ((c + 1) as f64 * std::f64::consts::PI / LOBE_PHI as f64).cos() as f32
-            }),
+            bins: FastBins::new(),
             s,
             z,
             q,
@@ -409,26 +444,14 @@ impl LobeTable {
         (i, x - i as f32)
     }
 
-    /// The μ bin of a cosine ([`mu_bin`] by comparisons).
     #[inline]
     fn mu_bin_fast(&self, mu: f32) -> usize {
-        self.mu_lo.partition_point(|&e| e <= mu)
+        self.bins.mu(mu)
     }
 
-    /// The Δφ bin of (wi, wo) ([`phi_bin`] by comparisons).
     #[inline]
     fn phi_bin_fast(&self, wi: Vec3, wo: Vec3) -> usize {
-        let li2 = wi.x * wi.x + wi.y * wi.y;
-        let lo2 = wo.x * wo.x + wo.y * wo.y;
-        if lo2 <= 1e-20 {
-            return 0;
-        }
-        let cos = if li2 <= 1e-20 {
-            wo.x / lo2.sqrt()
-        } else {
-            (wi.x * wo.x + wi.y * wo.y) / (li2 * lo2).sqrt()
-        };
-        self.phi_cos.partition_point(|&e| cos < e)
+        self.bins.phi(wi, wo)
     }
 
     /// Ŝ(α; μi, μo, Δφ) and the density of [`Self::sample`] at wo over solid angle, Ŝ μo / Z

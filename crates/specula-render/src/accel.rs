@@ -439,6 +439,12 @@ impl Bvh {
         }
         let tree = build_tree(&pb);
         drop(pb);
+        // room for typical trees (leaves of 4–8 triangles), so that the arrays seldom grow
+        // (untouched capacity costs address space only)
+        let n = kept.len();
+        out.nodes.reserve(n / 8 + 1);
+        out.packets.reserve(n / 2 + 1);
+        out.packet_ids.reserve(n / 2 + 1);
         out.collapse(&tree, &kept);
         out
     }

@@ -29,11 +29,7 @@ fn advise(ptr: *mut u8, size: usize) {
         // SAFETY: advice on pages of the block just allocated, which it owns: it changes
         // neither their contents nor the mapping; an error (e.g. an old kernel) is ignored
         unsafe {
-            libc::madvise(
-                start as *mut libc::c_void,
-                end - start,
-                libc::MADV_HUGEPAGE,
-            );
+            libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE);
         }
     }
 }
@@ -83,7 +79,7 @@ mod tests {
                 assert!(std::slice::from_raw_parts(z, size).iter().all(|&b| b == 0));
                 a.dealloc(z, layout);
                 let p = a.alloc(layout);
-                assert!(!p.is_null() && p as usize % 16 == 0);
+                assert!(!p.is_null() && (p as usize).is_multiple_of(16));
                 for i in (0..size).step_by(4093) {
                     *p.add(i) = (i % 251) as u8;
                 }

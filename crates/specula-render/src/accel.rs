@@ -355,7 +355,11 @@ impl Bvh {
             // (clamped: padding a box near ±f32::MAX must not make it infinite)
             let lo = (lo - pad).max(Vec3::splat(f32::MIN));
             let hi = (hi + pad).min(Vec3::splat(f32::MAX));
-            pb.push(PrimBox::new(lo, hi, matches!(p.shape, PrimShape::Triangle(_))));
+            pb.push(PrimBox::new(
+                lo,
+                hi,
+                matches!(p.shape, PrimShape::Triangle(_)),
+            ));
             kept.push(p);
         };
         for (g, geom) in geoms.iter().enumerate() {
@@ -439,12 +443,6 @@ impl Bvh {
         }
         let tree = build_tree(&pb);
         drop(pb);
-        // room for typical trees (leaves of 4–8 triangles), so that the arrays seldom grow
-        // (untouched capacity costs address space only)
-        let n = kept.len();
-        out.nodes.reserve(n / 8 + 1);
-        out.packets.reserve(n / 2 + 1);
-        out.packet_ids.reserve(n / 2 + 1);
         out.collapse(&tree, &kept);
         out
     }
@@ -875,12 +873,8 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
                 _mm_sub_pd,
             };
             // SAFETY (each block): SSE2 is part of the x86-64 baseline
-            let (clo_xy, scale_xy) = unsafe {
-                (
-                    _mm_set_pd(clo.y, clo.x),
-                    _mm_set_pd(scale[1], scale[0]),
-                )
-            };
+            let (clo_xy, scale_xy) =
+                unsafe { (_mm_set_pd(clo.y, clo.x), _mm_set_pd(scale[1], scale[0])) };
             let clamp = |k: i32| k.clamp(0, BINS as i32 - 1) as usize;
             for &i in range.iter() {
                 let p = &pb[i as usize];

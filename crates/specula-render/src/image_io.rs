@@ -763,7 +763,12 @@ mod tests {
             .collect();
         let mut grey = vec![];
         image::codecs::jpeg::JpegEncoder::new(&mut grey)
-            .encode(&[0u8, 60, 120, 250, 30, 90], 3, 2, image::ExtendedColorType::L8)
+            .encode(
+                &[0u8, 60, 120, 250, 30, 90],
+                3,
+                2,
+                image::ExtendedColorType::L8,
+            )
             .unwrap();
         let mut rgb = vec![];
         let px: Vec<u8> = (0..17 * 9 * 3).map(|i| (i * 37 % 256) as u8).collect();
@@ -777,7 +782,12 @@ mod tests {
             let channels = want.color().channel_count() as usize;
             assert_eq!(
                 (got.width, got.height, got.channels, got.srgb),
-                (want.width() as usize, want.height() as usize, channels, true)
+                (
+                    want.width() as usize,
+                    want.height() as usize,
+                    channels,
+                    true
+                )
             );
             assert_eq!(got.pixels, Pixels::U8(want.into_bytes()));
         }

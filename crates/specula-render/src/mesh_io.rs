@@ -209,7 +209,7 @@ pub fn parse_obj(bytes: &[u8]) -> std::result::Result<MeshData, String> {
 /// ASCII characters includes vertical tab, unlike `split_ascii_whitespace`'s).
 #[inline]
 fn ascii_words(line: &str) -> impl Iterator<Item = &str> {
-    line.split(|c: char| matches!(c, ' ' | '\t' | '\n' | '\x0B' | '\x0C' | '\r'))
+    line.split([' ', '\t', '\n', '\x0B', '\x0C', '\r'])
         .filter(|w| !w.is_empty())
 }
 
@@ -240,7 +240,11 @@ fn parse_obj_fast(bytes: &[u8]) -> Option<MeshData> {
         match words.next() {
             None | Some("#" | "o" | "g" | "usemtl" | "mtllib") => {}
             Some("v") => {
-                let p = [float(words.next())?, float(words.next())?, float(words.next())?];
+                let p = [
+                    float(words.next())?,
+                    float(words.next())?,
+                    float(words.next())?,
+                ];
                 if words.next().is_some() {
                     return None; // w or a colour
                 }
@@ -251,7 +255,11 @@ fn parse_obj_fast(bytes: &[u8]) -> Option<MeshData> {
                 tex.push(Vec2::new(float(words.next())?, float(words.next())?));
             }
             Some("vn") => {
-                let n = [float(words.next())?, float(words.next())?, float(words.next())?];
+                let n = [
+                    float(words.next())?,
+                    float(words.next())?,
+                    float(words.next())?,
+                ];
                 nrm.push(Vec3::from_array(n));
             }
             Some("f") => {
@@ -1590,7 +1598,7 @@ vt 0 1\nusemtl red\nf 1/1 2/2 3/3 4/4\ng b\nf 2/2 3/3 1/1\n",
         }
         // left to tobj: what they give is tobj's (mesh or error)
         let others: [&[u8]; 10] = [
-            b"v 0 0 0 2\nv 1 0 0\nv 1 1 0\nf 1 2 3\n",          // w
+            b"v 0 0 0 2\nv 1 0 0\nv 1 1 0\nf 1 2 3\n", // w
             b"v 0 0 0 1 0 0\nv 1 0 0 1 0 0\nv 1 1 0 1 0 0\nf 1 2 3\n", // colours
             b"v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\nl 1 2\n",
             b"v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2\nf 1 2 3\n",

@@ -4,6 +4,7 @@
 //! [`brdf::BrdfCommand`]), so new tools (`render`, `brdf plot`, `brdf check`, …) are added as
 //! new variants with their own argument struct and module.
 
+mod alloc;
 mod brdf;
 mod check;
 mod fit;
@@ -20,6 +21,9 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 use output::CliError;
+
+#[global_allocator]
+static ALLOC: alloc::HugePageAlloc = alloc::HugePageAlloc;
 
 /// Specula: physically based materials (Mitsuba 3's BSDFs), evaluated, sampled and checked.
 #[derive(Debug, Parser)]

@@ -1,7 +1,7 @@
 //! Ray intersection: one 8-wide BVH over every triangle, sphere and disk of the scene.
 //!
 //! **Structure.** The binary tree is built top-down with the surface area heuristic over 32
-//! centroid bins per axis ([`build_binary`]; O(n log n) on any input: identical centroids and
+//! centroid bins per axis ([`build_tree`]; O(n log n) on any input: identical centroids and
 //! subtrees deeper than [`MAX_SAH_DEPTH`] are split at the object median, and the heuristic
 //! is evaluated in double precision, so degenerate, zero-area and huge-coordinate geometry
 //! build as fast as any other) and collapsed into nodes of up to 8 children (greedily opening the child with the largest
@@ -294,6 +294,7 @@ const MAX_INV_DIR: f32 = 1e18;
 const EXIT_SCALE: f32 = 1.0 + 4.0 * f32::EPSILON;
 
 /// A node of the binary build tree (one primitive per leaf).
+#[derive(Clone, Copy)]
 struct BNode {
     lo: Vec3,
     hi: Vec3,
@@ -308,6 +309,15 @@ struct BNode {
 const NO_CHILD: u32 = u32::MAX;
 
 impl BNode {
+    /// A node not built yet.
+    const PLACEHOLDER: BNode = BNode {
+        lo: Vec3::ZERO,
+        hi: Vec3::ZERO,
+        kids: [NO_CHILD, NO_CHILD],
+        count: 0,
+        tris_only: false,
+    };
+
     fn half_area(&self) -> f32 {
         let e = (self.hi - self.lo).max(Vec3::ZERO);
         e.x * e.y + e.y * e.z + e.z * e.x
@@ -320,46 +330,86 @@ impl BNode {
 impl Bvh {
     /// Builds the BVH over every primitive of `geoms` (copying their data).
     pub fn build(geoms: &[Geometry]) -> Bvh {
-        let mut prims = Vec::new();
+        // one pass over the shapes: the primitives that are kept and their boxes, in shape
+        // order, in arrays of the right size (no regrowth, no second copy)
+        let total: usize = geoms
+            .iter()
+            .map(|g| match g {
+                Geometry::Mesh(m) => m.indices.len(),
+                Geometry::Instance(inst) if inst.member != 0 => 0,
+                _ => 1,
+            })
+            .sum();
+        let mut kept: Vec<Prim> = Vec::with_capacity(total);
+        let mut pb: Vec<PrimBox> = Vec::with_capacity(total);
         let mut groups: Vec<Arc<ShapeGroup>> = Vec::new();
+        // Drops primitives that can never be hit or would poison the build.
+        let mut keep = |p: Prim, lo: Vec3, hi: Vec3| {
+            if !(lo.is_finite() && hi.is_finite()) {
+                return;
+            }
+            // Pad by a few ulps of the coordinates (and of the extent) so that rounding in the
+            // box tests never rejects a ray that hits the primitive.
+            let scale = lo.abs().max(hi.abs()).max_element();
+            let pad = Vec3::splat(scale * 4e-7 + (hi - lo).max_element() * 1e-6 + 1e-30);
+            // (clamped: padding a box near ±f32::MAX must not make it infinite)
+            let lo = (lo - pad).max(Vec3::splat(f32::MIN));
+            let hi = (hi + pad).min(Vec3::splat(f32::MAX));
+            pb.push(PrimBox::new(
+                lo,
+                hi,
+                matches!(p.shape, PrimShape::Triangle(_)),
+            ));
+            kept.push(p);
+        };
         for (g, geom) in geoms.iter().enumerate() {
             let g = g as u32;
             match geom {
                 Geometry::Mesh(m) => {
-                    prims.reserve(m.indices.len());
                     for i in 0..m.indices.len() {
-                        prims.push(Prim {
-                            shape: PrimShape::Triangle(m.triangle(i)),
+                        let v = m.triangle(i);
+                        let prim = Prim {
+                            shape: PrimShape::Triangle(v),
                             geom: g,
                             index: i as u32,
-                        });
+                        };
+                        keep(prim, v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2]));
                     }
                 }
-                Geometry::Sphere(s) => prims.push(Prim {
-                    shape: PrimShape::Sphere {
-                        center: s.center,
-                        radius: s.radius.abs(),
-                    },
-                    geom: g,
-                    index: 0,
-                }),
+                Geometry::Sphere(s) => {
+                    let (center, radius) = (s.center, s.radius.abs());
+                    let prim = Prim {
+                        shape: PrimShape::Sphere { center, radius },
+                        geom: g,
+                        index: 0,
+                    };
+                    keep(
+                        prim,
+                        center - Vec3::splat(radius),
+                        center + Vec3::splat(radius),
+                    );
+                }
                 Geometry::Disk(d) => {
                     let m = Mat3::from_mat4(d.to_object);
                     let t = d.to_object.w_axis.truncate();
-                    prims.push(Prim {
+                    let prim = Prim {
                         shape: PrimShape::Disk { m, t },
                         geom: g,
                         index: 0,
-                    })
+                    };
+                    let (lo, hi) = geom.bounds();
+                    keep(prim, lo, hi);
                 }
                 Geometry::Cylinder(c) => {
                     let m = Mat3::from_mat4(c.to_object);
                     let t = c.to_object.w_axis.truncate();
-                    prims.push(Prim {
+                    let prim = Prim {
                         shape: PrimShape::Cylinder { m, t },
                         geom: g,
                         index: 0,
-                    })
+                    };
+                    let (lo, hi) = geom.bounds();
+                    keep(prim, lo, hi);
                 }
                 // one primitive per instance, on the slot of its first group shape
                 Geometry::Instance(inst) if inst.member == 0 => {
@@ -372,40 +422,16 @@ impl Bvh {
                     } as u32;
                     let m = Mat3::from_mat4(inst.to_object);
                     let t = inst.to_object.w_axis.truncate();
-                    prims.push(Prim {
+                    let prim = Prim {
                         shape: PrimShape::Instance { m, t, group },
                         geom: g,
                         index: 0,
-                    })
+                    };
+                    let (lo, hi) = geom.bounds();
+                    keep(prim, lo, hi);
                 }
                 Geometry::Instance(_) => {}
             }
-        }
-        // Drop primitives that can never be hit or would poison the build.
-        let mut aabbs = Vec::with_capacity(prims.len());
-        let mut kept = Vec::with_capacity(prims.len());
-        for p in prims {
-            let (lo, hi) = match p.shape {
-                PrimShape::Triangle(v) => (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2])),
-                PrimShape::Sphere { center, radius } => {
-                    (center - Vec3::splat(radius), center + Vec3::splat(radius))
-                }
-                PrimShape::Disk { .. }
-                | PrimShape::Cylinder { .. }
-                | PrimShape::Instance { .. } => geoms[p.geom as usize].bounds(),
-            };
-            if !(lo.is_finite() && hi.is_finite()) {
-                continue;
-            }
-            // Pad by a few ulps of the coordinates (and of the extent) so that rounding in the
-            // box tests never rejects a ray that hits the primitive.
-            let scale = lo.abs().max(hi.abs()).max_element();
-            let pad = Vec3::splat(scale * 4e-7 + (hi - lo).max_element() * 1e-6 + 1e-30);
-            // (clamped: padding a box near ±f32::MAX must not make it infinite)
-            let lo = (lo - pad).max(Vec3::splat(f32::MIN));
-            let hi = (hi + pad).min(Vec3::splat(f32::MAX));
-            aabbs.push((lo, hi));
-            kept.push(p);
         }
         let mut out = Bvh {
             primitives: kept.len(),
@@ -415,7 +441,8 @@ impl Bvh {
         if kept.is_empty() {
             return out;
         }
-        let tree = build_binary(&aabbs, &kept);
+        let tree = build_tree(&pb);
+        drop(pb);
         out.collapse(&tree, &kept);
         out
     }
@@ -589,7 +616,31 @@ fn dmax(a: DVec3, b: DVec3) -> DVec3 {
     DVec3::new(m(a.x, b.x), m(a.y, b.y), m(a.z, b.z))
 }
 
-/// The binary build tree over `boxes` (finite, one per primitive of `prims`): one primitive
+impl PrimBox {
+    /// The record of a primitive with the (padded, finite) box `lo..hi`.
+    #[inline]
+    fn new(lo: Vec3, hi: Vec3, tri: bool) -> PrimBox {
+        PrimBox {
+            lo: lo.into(),
+            hi: hi.into(),
+            c: (lo.as_dvec3() + hi.as_dvec3()) * 0.5,
+            tri,
+        }
+    }
+}
+
+/// [`build_tree`] over `boxes` (finite, one per primitive of `prims`).
+#[cfg(test)]
+fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> Vec<BNode> {
+    let pb: Vec<PrimBox> = boxes
+        .iter()
+        .zip(prims)
+        .map(|(&(lo, hi), p)| PrimBox::new(lo, hi, matches!(p.shape, PrimShape::Triangle(_))))
+        .collect();
+    build_tree(&pb)
+}
+
+/// The binary build tree over the primitives' build records (at least one): one primitive
 /// per leaf, root first, parents before children, depth-first, counts filled in.
 ///
 /// Top-down binned SAH: each node bins its primitives' centroids into [`BINS`] slots along
@@ -597,20 +648,14 @@ fn dmax(a: DVec3, b: DVec3) -> DVec3 {
 /// count on each side). Primitives whose centroids coincide, and subtrees deeper than
 /// [`MAX_SAH_DEPTH`], are split at the object median; every split is a partition of an index
 /// range, so the whole build is O(n log n) with an explicit stack (no recursion).
-fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> Vec<BNode> {
-    let n = boxes.len();
-    let pb: Vec<PrimBox> = boxes
-        .iter()
-        .zip(prims)
-        .map(|(&(lo, hi), p)| PrimBox {
-            lo: lo.into(),
-            hi: hi.into(),
-            c: (lo.as_dvec3() + hi.as_dvec3()) * 0.5,
-            tri: matches!(p.shape, PrimShape::Triangle(_)),
-        })
-        .collect();
+fn build_tree(pb: &[PrimBox]) -> Vec<BNode> {
+    let n = pb.len();
     let mut idx: Vec<u32> = (0..n as u32).collect();
-    let mut tree = build_range(&mut idx, None, &pb, 0);
+    // a binary tree with one primitive per leaf has 2n − 1 nodes, and each subtree of m
+    // primitives fills 2m − 1 consecutive ones (root first): every part of the build writes
+    // its own slice of one array
+    let mut tree = vec![BNode::PLACEHOLDER; 2 * n - 1];
+    build_range(&mut idx, None, pb, 0, &mut tree, 0);
     // children come after their parents: sum up in reverse
     for i in (0..tree.len()).rev() {
         if !tree[i].is_leaf() {
@@ -705,56 +750,54 @@ fn node_and_split(
 }
 
 /// The binary tree over the primitives `range` (root first, then the first part's subtree,
-/// then the second's; child indices relative to this tree; `bounds` the range's bounds when
-/// known). Large ranges build their halves in parallel; the tree is the same whatever the
+/// then the second's; `bounds` the range's bounds when known), written to `out` (its
+/// 2·len − 1 nodes; `base` is the index of `out[0]` in the whole tree, which child indices
+/// refer to). Large ranges build their halves in parallel; the tree is the same whatever the
 /// number of threads.
 fn build_range(
     range: &mut [u32],
     bounds: Option<RangeBounds>,
     pb: &[PrimBox],
     depth: u32,
-) -> Vec<BNode> {
+    out: &mut [BNode],
+    base: u32,
+) {
+    debug_assert_eq!(out.len(), 2 * range.len() - 1);
     if range.len() >= PARALLEL_BUILD {
         let (mut node, split) = node_and_split(range, bounds, pb, depth);
         let (mid, parts) = split.expect("a large range splits");
         let [ba, bb] = parts.map_or([None, None], |[a, b]| [Some(a), Some(b)]);
         let (a, b) = range.split_at_mut(mid);
-        let (ta, tb) = rayon::join(
-            || build_range(a, ba, pb, depth + 1),
-            || build_range(b, bb, pb, depth + 1),
+        let (root, rest) = out.split_at_mut(1);
+        let (oa, ob) = rest.split_at_mut(2 * mid - 1);
+        let second = base + 1 + oa.len() as u32;
+        node.kids = [base + 1, second];
+        root[0] = node;
+        rayon::join(
+            || build_range(a, ba, pb, depth + 1, oa, base + 1),
+            || build_range(b, bb, pb, depth + 1, ob, second),
         );
-        let mut tree = Vec::with_capacity(1 + ta.len() + tb.len());
-        let second = 1 + ta.len() as u32;
-        node.kids = [1, second];
-        tree.push(node);
-        for (sub, offset) in [(ta, 1), (tb, second)] {
-            tree.extend(sub.into_iter().map(|mut n| {
-                if !n.is_leaf() {
-                    n.kids = n.kids.map(|k| k + offset);
-                }
-                n
-            }));
-        }
-        return tree;
+        return;
     }
-    let mut tree: Vec<BNode> = Vec::with_capacity(2 * range.len());
+    let mut next = 0usize;
     // (first, end, parent, which child, depth, bounds)
     let mut todo: Vec<(usize, usize, u32, usize, u32, Option<RangeBounds>)> =
         vec![(0, range.len(), NO_CHILD, 0, depth, bounds)];
     while let Some((s, e, parent, which, depth, bounds)) = todo.pop() {
-        let index = tree.len() as u32;
+        let index = next;
         if parent != NO_CHILD {
-            tree[parent as usize].kids[which] = index;
+            out[parent as usize].kids[which] = base + index as u32;
         }
         let (node, split) = node_and_split(&mut range[s..e], bounds, pb, depth);
-        tree.push(node);
+        out[index] = node;
+        next += 1;
         if let Some((mid, parts)) = split {
             let [ba, bb] = parts.map_or([None, None], |[a, b]| [Some(a), Some(b)]);
-            todo.push((s + mid, e, index, 1, depth + 1, bb));
-            todo.push((s, s + mid, index, 0, depth + 1, ba));
+            todo.push((s + mid, e, index as u32, 1, depth + 1, bb));
+            todo.push((s, s + mid, index as u32, 0, depth + 1, ba));
         }
     }
-    tree
+    debug_assert_eq!(next, out.len());
 }
 
 /// A centroid bin of the SAH build: the bounds of its primitives' boxes and their number.
@@ -799,9 +842,11 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
     }
     // (the same quotient whether computed here or per primitive)
     let scale: [f64; 3] = std::array::from_fn(|a| BINS as f64 / ext[a]);
+    // (`as i64` then clamped: the same bin as `as usize` then `min(BINS − 1)` for every
+    // value, NaN included, in fewer instructions)
     let bin_of = |c: f64, a: usize| -> usize {
-        let k = ((c - clo[a]) * scale[a]) as usize;
-        k.min(BINS - 1)
+        let k = ((c - clo[a]) * scale[a]) as i64;
+        k.clamp(0, BINS as i64 - 1) as usize
     };
     // best (cost, axis, first bin of the right side)
     let mut best = (f64::INFINITY, usize::MAX, 0usize);
@@ -816,6 +861,42 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
         b.n += 1;
     };
     if live == [true; 3] {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // the x and y bins of a centroid in one SSE2 operation each: the same
+            // subtraction and product as `bin_of`, truncated to i32, which equals its i64
+            // truncation here: centroids are means of f32 coordinates, so a positive
+            // extent is at least 2⁻¹⁵⁰, the scale is finite and every product lies in
+            // [0, BINS] (a little above at most: clamped)
+            use std::arch::x86_64::{
+                _mm_cvtsi128_si32, _mm_cvttpd_epi32, _mm_mul_pd, _mm_set_pd, _mm_shuffle_epi32,
+                _mm_sub_pd,
+            };
+            // SAFETY (each block): SSE2 is part of the x86-64 baseline
+            let (clo_xy, scale_xy) =
+                unsafe { (_mm_set_pd(clo.y, clo.x), _mm_set_pd(scale[1], scale[0])) };
+            let clamp = |k: i32| k.clamp(0, BINS as i32 - 1) as usize;
+            for &i in range.iter() {
+                let p = &pb[i as usize];
+                let (kx, ky) = unsafe {
+                    let xy = _mm_mul_pd(_mm_sub_pd(_mm_set_pd(p.c.y, p.c.x), clo_xy), scale_xy);
+                    let k = _mm_cvttpd_epi32(xy);
+                    (
+                        _mm_cvtsi128_si32(k),
+                        _mm_cvtsi128_si32(_mm_shuffle_epi32::<1>(k)),
+                    )
+                };
+                let (kx, ky) = (clamp(kx), clamp(ky));
+                let kz = clamp(((p.c.z - clo.z) * scale[2]) as i32);
+                for (b, k) in [(0, kx), (1, ky), (2, kz)] {
+                    let b = &mut bins[b][k];
+                    b.lo = b.lo.min(p.lo);
+                    b.hi = b.hi.max(p.hi);
+                    b.n += 1;
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
         for &i in range.iter() {
             let p = &pb[i as usize];
             add(0, p);

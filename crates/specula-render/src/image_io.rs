@@ -307,7 +307,52 @@ pub fn decode_image_raw(bytes: &[u8]) -> std::result::Result<RawImage, String> {
             srgb: false,
         });
     }
+    if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
+        return read_jpeg(bytes);
+    }
     read_with_image_crate(bytes)
+}
+
+/// A JPEG decoded by zune-jpeg directly, as the `image` crate decodes it (the same decoder
+/// and options: not strict, RGB, RGBA, grey and grey+alpha kept, other colour spaces
+/// converted to RGB), without the crate's copy of the file and its header pass.
+fn read_jpeg(bytes: &[u8]) -> std::result::Result<RawImage, String> {
+    use zune_core::bytestream::ZCursor;
+    use zune_core::colorspace::ColorSpace;
+    use zune_core::options::DecoderOptions;
+    let err = |e: zune_jpeg::errors::DecodeErrors| format!("cannot read JPEG image: {e}");
+    let options = DecoderOptions::default()
+        .set_strict_mode(false)
+        .set_max_width(usize::MAX)
+        .set_max_height(usize::MAX);
+    let mut decoder = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), options);
+    decoder.decode_headers().map_err(err)?;
+    let (Some((width, height)), Some(input)) = (decoder.dimensions(), decoder.input_colorspace())
+    else {
+        return Err("cannot read JPEG image: no frame header".into());
+    };
+    // the size from the header, checked before the pixels are allocated
+    check_image_size(width, height)?;
+    let out = match input {
+        ColorSpace::RGB | ColorSpace::RGBA | ColorSpace::Luma | ColorSpace::LumaA => input,
+        _ => ColorSpace::RGB,
+    };
+    decoder.set_options(decoder.options().jpeg_set_out_colorspace(out));
+    let pixels = decoder.decode().map_err(err)?;
+    let channels = out.num_components();
+    if pixels.len() != width * height * channels {
+        return Err(format!(
+            "cannot read JPEG image: {} bytes decoded for {width}×{height}×{channels}",
+            pixels.len()
+        ));
+    }
+    Ok(RawImage {
+        width,
+        height,
+        channels,
+        pixels: Pixels::U8(pixels),
+        srgb: true,
+    })
 }
 
 fn read_exr(bytes: &[u8]) -> std::result::Result<Image, String> {
@@ -704,6 +749,53 @@ mod tests {
         assert_eq!((img.width, img.height, img.channels), (3, 2, 3));
         assert!((img.get(2, 1, 0) - 5.0).abs() < 0.05);
         assert!((img.get(2, 1, 2) - 100.0).abs() < 1.0);
+    }
+
+    /// JPEGs decoded directly are the `image` crate's decoding of them, byte for byte (the
+    /// shared textures, grey and RGB, and small files written here), and a broken JPEG is an
+    /// error that says so.
+    #[test]
+    fn jpegs_decode_as_the_image_crate_decodes_them() {
+        let textures = specula_testdata::root().join("mitsuba-data/common/textures");
+        let mut files: Vec<Vec<u8>> = ["floor_tiles.jpg", "gradient.jpg", "noise_01.jpg"]
+            .iter()
+            .map(|f| std::fs::read(textures.join(f)).unwrap())
+            .collect();
+        let mut grey = vec![];
+        image::codecs::jpeg::JpegEncoder::new(&mut grey)
+            .encode(
+                &[0u8, 60, 120, 250, 30, 90],
+                3,
+                2,
+                image::ExtendedColorType::L8,
+            )
+            .unwrap();
+        let mut rgb = vec![];
+        let px: Vec<u8> = (0..17 * 9 * 3).map(|i| (i * 37 % 256) as u8).collect();
+        image::codecs::jpeg::JpegEncoder::new(&mut rgb)
+            .encode(&px, 17, 9, image::ExtendedColorType::Rgb8)
+            .unwrap();
+        files.extend([grey, rgb]);
+        for bytes in &files {
+            let got = decode_image_raw(bytes).unwrap();
+            let want = image::load_from_memory(bytes).unwrap();
+            let channels = want.color().channel_count() as usize;
+            assert_eq!(
+                (got.width, got.height, got.channels, got.srgb),
+                (
+                    want.width() as usize,
+                    want.height() as usize,
+                    channels,
+                    true
+                )
+            );
+            assert_eq!(got.pixels, Pixels::U8(want.into_bytes()));
+        }
+        let mut broken = files[4].clone();
+        broken.truncate(broken.len() / 2);
+        broken[200..].fill(0xFF);
+        let e = decode_image_raw(&broken[..300]).map(|_| ()).unwrap_err();
+        assert!(e.contains("JPEG"), "{e}");
     }
 
     #[test]

@@ -194,7 +194,181 @@ fn check_obj_refs(
 
 /// [`load_obj`] on the bytes of a file; the error says what is wrong (the caller names the
 /// file).
+///
+/// Files of the common statements only (see [`parse_obj_fast`]) are read in one pass; any
+/// other file, and any file with a problem, goes through [`parse_obj_general`] (tobj), which
+/// gives the same mesh and the errors.
 pub fn parse_obj(bytes: &[u8]) -> std::result::Result<MeshData, String> {
+    match parse_obj_fast(bytes) {
+        Some(data) => Ok(data),
+        None => parse_obj_general(bytes),
+    }
+}
+
+/// The words of an ASCII line, as `str::split_whitespace` splits it (its whitespace among
+/// ASCII characters includes vertical tab, unlike `split_ascii_whitespace`'s).
+#[inline]
+fn ascii_words(line: &str) -> impl Iterator<Item = &str> {
+    line.split([' ', '\t', '\n', '\x0B', '\x0C', '\r'])
+        .filter(|w| !w.is_empty())
+}
+
+/// One pass over an ASCII OBJ file of `v`, `vt`, `vn` and `f` statements (and the comments,
+/// groups, objects, materials and other statements that tobj ignores or [`parse_obj_general`]
+/// drops), giving exactly [`parse_obj_general`]'s mesh: one vertex per distinct (v, vt, vn)
+/// reference in order of first use, polygons as fans, v flipped. `None` (read it with
+/// [`parse_obj_general`]) for anything else: non-ASCII text, `l` and `p` statements, faces of
+/// fewer than 3 corners, positions with w or colours, and every problem (bad numbers,
+/// references out of range), so that the errors are that function's.
+fn parse_obj_fast(bytes: &[u8]) -> Option<MeshData> {
+    const MISSING: u32 = u32::MAX;
+    if !bytes.is_ascii() {
+        return None;
+    }
+    let text = std::str::from_utf8(bytes).ok()?;
+    let mut pos: Vec<Vec3> = Vec::new();
+    let mut tex: Vec<Vec2> = Vec::new();
+    let mut nrm: Vec<Vec3> = Vec::new();
+    // every face corner's (v, vt, vn), 0-based or MISSING, and each face's corner count
+    let mut corners: Vec<[u32; 3]> = Vec::new();
+    let mut faces: Vec<u32> = Vec::new();
+    // the largest positive reference of each kind, checked against the counts at the end
+    let mut max_ref = [0u64; 3];
+    let float = |w: Option<&str>| w.and_then(|w| w.parse::<f32>().ok());
+    for line in text.lines() {
+        let mut words = ascii_words(line);
+        match words.next() {
+            None | Some("#" | "o" | "g" | "usemtl" | "mtllib") => {}
+            Some("v") => {
+                let p = [
+                    float(words.next())?,
+                    float(words.next())?,
+                    float(words.next())?,
+                ];
+                if words.next().is_some() {
+                    return None; // w or a colour
+                }
+                pos.push(Vec3::from_array(p));
+            }
+            Some("vt") => {
+                // (a third coordinate is ignored, as tobj does)
+                tex.push(Vec2::new(float(words.next())?, float(words.next())?));
+            }
+            Some("vn") => {
+                let n = [
+                    float(words.next())?,
+                    float(words.next())?,
+                    float(words.next())?,
+                ];
+                nrm.push(Vec3::from_array(n));
+            }
+            Some("f") => {
+                let so_far = [pos.len() as u64, tex.len() as u64, nrm.len() as u64];
+                let first = corners.len();
+                for corner in words {
+                    let mut c = [MISSING; 3];
+                    for (k, part) in corner.split('/').enumerate() {
+                        if part.is_empty() {
+                            continue;
+                        }
+                        if k > 2 {
+                            return None;
+                        }
+                        let x: i64 = part.parse().ok()?;
+                        let i = if x < 0 {
+                            so_far[k].checked_sub(x.unsigned_abs())?
+                        } else if x > 0 {
+                            max_ref[k] = max_ref[k].max(x as u64);
+                            x as u64 - 1
+                        } else {
+                            return None;
+                        };
+                        c[k] = u32::try_from(i).ok().filter(|&i| i != MISSING)?;
+                    }
+                    corners.push(c);
+                }
+                let n = corners.len() - first;
+                if n < 3 {
+                    return None;
+                }
+                faces.push(n as u32);
+            }
+            Some("l" | "p") => return None,
+            Some(_) => {} // ignored by tobj
+        }
+    }
+    let counts = [pos.len() as u64, tex.len() as u64, nrm.len() as u64];
+    if (0..3).any(|k| max_ref[k] > counts[k]) {
+        return None;
+    }
+    // one vertex per distinct reference, numbered in order of first use; the vertices made
+    // from the same position are chained, so a lookup compares a few (vt, vn) pairs, no hash
+    let mut first_of_pos = vec![MISSING; pos.len()];
+    let mut next_same_pos: Vec<u32> = Vec::new();
+    let mut refs: Vec<[u32; 3]> = Vec::new();
+    let mut vertex_of = |c: [u32; 3]| -> u32 {
+        let mut v = first_of_pos[c[0] as usize];
+        let mut last = MISSING;
+        while v != MISSING {
+            if refs[v as usize] == c {
+                return v;
+            }
+            last = v;
+            v = next_same_pos[v as usize];
+        }
+        let new = refs.len() as u32;
+        refs.push(c);
+        next_same_pos.push(MISSING);
+        if last == MISSING {
+            first_of_pos[c[0] as usize] = new;
+        } else {
+            next_same_pos[last as usize] = new;
+        }
+        new
+    };
+    let triangles: usize = faces.iter().map(|&n| n as usize - 2).sum();
+    let mut indices = Vec::with_capacity(triangles);
+    let mut at = 0;
+    for &n in &faces {
+        let face = &corners[at..at + n as usize];
+        at += n as usize;
+        // a fan: (0, 1, 2), (0, 2, 3), … — each corner numbered when first met, in this order
+        let a = vertex_of(face[0]);
+        let mut b = vertex_of(face[1]);
+        for &c in &face[2..] {
+            let c = vertex_of(c);
+            indices.push([a, b, c]);
+            b = c;
+        }
+    }
+    let mut data = MeshData {
+        positions: refs.iter().map(|r| pos[r[0] as usize]).collect(),
+        indices,
+        ..MeshData::default()
+    };
+    // texture coordinates and normals only when every vertex has them (and the file has some)
+    if !tex.is_empty() && !refs.is_empty() && refs.iter().all(|r| r[1] != MISSING) {
+        data.uvs = Some(
+            refs.iter()
+                .map(|r| {
+                    let t = tex[r[1] as usize];
+                    Vec2::new(t.x, 1.0 - t.y)
+                })
+                .collect(),
+        );
+    }
+    if !nrm.is_empty() && !refs.is_empty() && refs.iter().all(|r| r[2] != MISSING) {
+        data.normals = Some(refs.iter().map(|r| nrm[r[2] as usize]).collect());
+    }
+    if data.validate("invalid OBJ file").is_err() || data.indices.is_empty() {
+        return None;
+    }
+    Some(data)
+}
+
+/// [`parse_obj`] through tobj, for every file (the reference for [`parse_obj_fast`], and the
+/// reader of what it leaves, errors included).
+fn parse_obj_general(bytes: &[u8]) -> std::result::Result<MeshData, String> {
     let text = String::from_utf8_lossy(bytes);
     let kind = |first: &str| match first {
         "v" => Some(0),
@@ -1386,6 +1560,61 @@ vt 0 1\nusemtl red\nf 1/1 2/2 3/3 4/4\ng b\nf 2/2 3/3 1/1\n",
             let e = load_obj(&p).unwrap_err().to_string();
             assert!(e.contains("line 5: face refers to normal -31"), "{e}");
         }
+    }
+
+    /// The one-pass reader gives tobj's mesh (through `parse_obj_general`) bit for bit on
+    /// the shared OBJ files and on files that exercise it (quads and larger polygons, negative
+    /// and forward references, vertices shared with different texture coordinates, faces with
+    /// and without normals, groups and materials, comments, CRLF, vertical tabs, a third
+    /// texture coordinate), and leaves every other file to tobj, which reports its problems.
+    #[test]
+    fn one_pass_obj_reader_is_tobj() {
+        let mut files: Vec<Vec<u8>> = ["torusknot.obj", "bumpy.obj"]
+            .iter()
+            .map(|f| std::fs::read(assets().join(f)).unwrap())
+            .collect();
+        for f in ["meshes/rectangle.obj", "meshes/sphere.obj"] {
+            if let Some(p) = specula_testdata::shared(&format!("mitsuba-data/common/{f}")) {
+                files.push(std::fs::read(p).unwrap());
+            }
+        }
+        let same: [&[u8]; 6] = [
+            b"# quad, pentagon\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 2 0\n\
+              f 1 2 3 4\nf 1 2 3 4 5\nf -5 -4 -3\n",
+            b"mtllib m.mtl\r\no a\r\nv 0 0 0\r\nv 1 0 0\r\nv 1 1 0\r\nvt 0 0\r\n\
+              vt 1 0 0.5\r\nvt 1 1\r\nusemtl x\r\nf 1/1 2/2 3/3\r\ng b\r\n\
+              f 3/1 2/2 1/3\r\ns 1\r\nf 1/1 2/2 3/3\r\n",
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nvn 0 0 1\nvn 0 0 -1\n\
+              f 1//1 2//1 3//1\nf 1//2 3//2 2//2\nf 1//1 3//1 4//1\nv 2 2 0\n",
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\nf 1 2 3\n",
+            b"v\x0b0 0 0\nv 1\t0 0\n  v 1 1 0  \nf 1 2 3\n#f 1 1 1\nvp 1 2\n",
+            b"v 0 0 0\nv 1e0 0 0\nv 0 +1 0\nvt 0.25 0.75\nf 1/1 2/1 3/1\nf 3/1 2/1 1/1\n",
+        ];
+        files.extend(same.iter().map(|b| b.to_vec()));
+        for (i, bytes) in files.iter().enumerate() {
+            let want = parse_obj_general(bytes).unwrap();
+            let got = parse_obj_fast(bytes).unwrap_or_else(|| panic!("file {i} not read"));
+            assert_eq!(got, want, "file {i}");
+        }
+        // left to tobj: what they give is tobj's (mesh or error)
+        let others: [&[u8]; 10] = [
+            b"v 0 0 0 2\nv 1 0 0\nv 1 1 0\nf 1 2 3\n", // w
+            b"v 0 0 0 1 0 0\nv 1 0 0 1 0 0\nv 1 1 0 1 0 0\nf 1 2 3\n", // colours
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\nl 1 2\n",
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2\nf 1 2 3\n",
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 4\n",
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 -4\n",
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1/1 2/1 3/1\n",
+            b"v 0 0 0\nv 1 x 0\nv 1 1 0\nf 1 2 3\n",
+            b"v 0 0 0\nv 1 nan 0\nv 1 1 0\nf 1 2 3\n",
+            "v 0 0 0\nv 1\u{3000}0 0\nv 1 1 0\nf 1 2 3\n".as_bytes(),
+        ];
+        for (i, bytes) in others.iter().enumerate() {
+            assert!(parse_obj_fast(bytes).is_none(), "case {i}");
+            let (a, b) = (parse_obj(bytes), parse_obj_general(bytes));
+            assert_eq!(a, b, "case {i}");
+        }
+        assert!(parse_obj(others[4]).unwrap_err().contains("line 4"));
     }
 
     /// One polygon of 90 000 corners (`robustness/obj/big_polygon_bvh_hang.obj`) loads as a

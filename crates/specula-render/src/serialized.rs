@@ -154,8 +154,9 @@ pub fn parse(bytes: &[u8], shape_index: i64) -> std::result::Result<MeshData, St
         ));
     }
     let need = need as usize;
-    // grows with the data actually decompressed, never beyond `need`
-    let mut body = Vec::new();
+    // sized for `need` up front (no regrowth and copying) when that is moderate; a larger
+    // claim grows with the data actually decompressed, never beyond `need`
+    let mut body = Vec::with_capacity(need.min(1 << 26));
     z.take(need as u64)
         .read_to_end(&mut body)
         .map_err(corrupt)?;

@@ -226,13 +226,25 @@ fn byte_histograms(data: &[u8], channels: usize) -> Vec<[u64; 256]> {
     let count = |part: &[u8]| {
         let mut hist = vec![[0u64; 256]; channels];
         if channels == 3 {
-            let [h0, h1, h2] = &mut hist[..] else {
-                unreachable!()
-            };
-            for px in part.chunks_exact(3) {
-                h0[px[0] as usize] += 1;
-                h1[px[1] as usize] += 1;
-                h2[px[2] as usize] += 1;
+            // two pixels at a time into two sets of counters: neighbouring pixels mostly
+            // have the same values, and one set would make each increment wait for the last
+            let mut h = [[0u32; 256]; 6];
+            let mut pairs = part.chunks_exact(6);
+            for px in &mut pairs {
+                h[0][px[0] as usize] += 1;
+                h[1][px[1] as usize] += 1;
+                h[2][px[2] as usize] += 1;
+                h[3][px[3] as usize] += 1;
+                h[4][px[4] as usize] += 1;
+                h[5][px[5] as usize] += 1;
+            }
+            for (c, &b) in pairs.remainder().iter().enumerate() {
+                h[c][b as usize] += 1;
+            }
+            for (c, hc) in hist.iter_mut().enumerate() {
+                for (k, v) in hc.iter_mut().enumerate() {
+                    *v = h[c][k] as u64 + h[c + 3][k] as u64;
+                }
             }
         } else {
             for px in part.chunks_exact(channels) {
@@ -243,7 +255,8 @@ fn byte_histograms(data: &[u8], channels: usize) -> Vec<[u64; 256]> {
         }
         hist
     };
-    // parts of whole pixels, large enough to be worth a task
+    // parts of whole pixels, large enough to be worth a task (and few enough that no
+    // counter can overflow 32 bits)
     let part = channels * (1 << 18);
     if data.len() <= part {
         return count(data);

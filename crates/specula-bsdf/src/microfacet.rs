@@ -136,6 +136,28 @@ impl MicrofacetDistribution {
         }
     }
 
+    /// Height-correlated masking-shadowing of a pair of directions (Heitz 2014, "Understanding
+    /// the masking-shadowing function in microfacet-based BRDFs", uniform heights): with
+    /// Λ = 1/G1 − 1 of each direction, 1/(1 + Λi + Λo) when both lie on the same side
+    /// (reflection) and the Beta function B(1 + Λi, 1 + Λo) when they lie on opposite sides
+    /// (refraction: the ray escapes downwards from the height it meets the microfacet at).
+    /// Symmetric in (wi, wo); 0 where either G1 is.
+    #[inline]
+    pub fn g2_correlated(&self, wi: Vec3, wo: Vec3, m: Vec3) -> f32 {
+        let (gi, go) = (self.smith_g1(wi, m), self.smith_g1(wo, m));
+        if gi <= 0.0 || go <= 0.0 {
+            return 0.0;
+        }
+        let (li, lo) = (1.0 / gi as f64 - 1.0, 1.0 / go as f64 - 1.0);
+        if wi.z * wo.z > 0.0 {
+            (1.0 / (1.0 + li + lo)) as f32
+        } else {
+            use crate::multiscatter::dielectric_lobe::ln_gamma;
+            let (a, b) = (1.0 + li, 1.0 + lo);
+            (ln_gamma(a) + ln_gamma(b) - ln_gamma(a + b)).exp() as f32
+        }
+    }
+
     /// Separable shadowing-masking G(wi, wo, m) = G1(wi, m) G1(wo, m).
     #[inline]
     pub fn g(&self, wi: Vec3, wo: Vec3, m: Vec3) -> f32 {

@@ -260,40 +260,39 @@ fn conductor_lobe_shape_agrees_with_the_walk() {
 /// `multiscatter::dielectric_lobe`), from outside and inside, η on (1.5) and off (1.33, 2.4)
 /// the table's nodes, 400 000 samples each: the total-variation distance between the binned
 /// lobes (both sides) at most 0.02 above its value for identical lobes (`lobe_noise`), the
-/// albedo (R + T) within 2 % and the transmitted part within 0.02 of the walk's. Kulla–Conty's
-/// separable lobes were 0.065–0.19 here (`dielectric_survey`, noise 0.007–0.02), beyond this
-/// bound. Where the separable single-scattering model transmits more than the walk (rough, grazing
-/// from outside) no non-negative lobe comes closer than the negative part N of the deficit
-/// (`negative_deficit`); there the distance must be within 0.02 of max(N, noise): GGX α = 1,
-/// η = 1.5, 85°: N ≈ 0.18, Kulla–Conty 0.32.
+/// albedo (R + T) within 2 % and the transmitted part within 0.02 of the walk's. Under
+/// `multiscatter=true` the single-scattering part is height-correlated, the walk's own first
+/// event, so the deficit f_walk − f_ss is non-negative and no lower bound above the noise
+/// remains. Kulla–Conty's separable lobes were 0.065–0.19 here (`dielectric_survey`, noise
+/// 0.007–0.02); with the separable single scattering the negative part of the deficit bounded
+/// the distance from below (GGX α = 1, η = 1.5, 85°: 0.18, `negative_deficit`). Not yet within
+/// this bound (the survey, 200 000 samples): η = 1.33 at grazing incidence on rough surfaces,
+/// between the table's η nodes (GGX α = 1, 75°: 0.023 above the noise; Beckmann α = 1, 85°:
+/// 0.033), and Beckmann α = 0.1 from inside at 95° (the θ bins, 0.027).
 #[test]
 fn dielectric_lobe_shape_agrees_with_the_walk() {
-    use specula_bsdf::models::microsurface_walk::walk_for;
-    use specula_bsdf::multiscatter::dielectric_lobe::negative_deficit;
     for (d, a, eta, t) in [
         ("ggx", 1.0f32, "1.5", 45.0f32),
         ("ggx", 1.0, "1.5", 135.0),
         ("ggx", 1.0, "1.5", 180.0),
         ("ggx", 0.6, "1.33", 135.0),
         ("ggx", 0.6, "1.5", 105.0),
+        ("ggx", 0.6, "1.5", 85.0),
         ("ggx", 0.3, "1.33", 105.0),
         ("ggx", 0.1, "2.4", 85.0),
         ("ggx", 1.0, "1.5", 85.0),
+        ("ggx", 1.0, "1.5", 75.0),
+        ("ggx", 1.0, "2.4", 85.0),
         ("beckmann", 0.6, "1.33", 135.0),
         ("beckmann", 1.0, "1.5", 135.0),
+        ("beckmann", 1.0, "1.5", 85.0),
         ("beckmann", 0.3, "1.5", 105.0),
     ] {
         let spec =
             format!("roughdielectric distribution={d} alpha={a} int_ior={eta} multiscatter=true");
         let r = agreement(&spec, t, 400_000);
-        let w = walk_for(&parse_spec(&spec).unwrap()).unwrap();
-        let n = negative_deficit(&w, check::suite::incidence(t), 400_000, 19);
-        println!("  negative part of the deficit (the bound): {n:.4}");
         assert!(r.lobe_noise < 0.02, "{spec} θi={t}: {r:?}");
-        assert!(
-            r.lobe_tv < r.lobe_noise.max(n) + 0.02,
-            "{spec} θi={t}: bound {n}, {r:?}"
-        );
+        assert!(r.lobe_tv < r.lobe_noise + 0.02, "{spec} θi={t}: {r:?}");
         assert!(r.albedo_rel < 0.02, "{spec} θi={t}: {r:?}");
         assert!((r.model_t - r.walk_t).abs() < 0.02, "{spec} θi={t}: {r:?}");
     }
@@ -302,8 +301,10 @@ fn dielectric_lobe_shape_agrees_with_the_walk() {
 /// The survey of the dielectric compensation lobes against the walk behind the report's
 /// table (`-- --ignored --nocapture`): GGX and Beckmann, α ∈ {0.1, 0.3, 0.6, 1}, η ∈ {1.33,
 /// 1.5, 2.4}, θi ∈ {0, 45, 75, 85}° from outside and inside, 200 000 samples each; one line
-/// per case with the lobe distance (noise), its lower bound for any non-negative compensation
-/// lobe (`negative_deficit`), the albedo difference and the transmitted parts.
+/// per case with the lobe distance (noise), the lower bound that the *separable*
+/// single-scattering model would put on any non-negative compensation lobe (`negative_deficit`;
+/// `multiscatter=true` is height-correlated, whose bound is 0), the albedo difference and the
+/// transmitted parts.
 #[test]
 #[ignore]
 fn dielectric_survey() {
@@ -336,11 +337,13 @@ fn dielectric_survey() {
                 let w = walk_for(&b).unwrap();
                 let wi = check::suite::incidence(t);
                 let r = compare(&b, &w, wi, 200_000, 17);
-                let n = negative_deficit(&w, wi, 200_000, 19);
+                // the bound of the separable model (the deficit against the height-correlated
+                // one, which `multiscatter=true` now uses, has no negative part)
+                let n = negative_deficit(&w, wi, 200_000, 19, false);
                 lines.lock().unwrap().push((
                     k,
                     format!(
-                        "{d:<8} α={a:<4} η={eta:<4} θi={t:>5}: TV {:.4} ({:.4})  bound {n:.4}  albedo rel {:.4}  T model {:.4} walk {:.4}",
+                        "{d:<8} α={a:<4} η={eta:<4} θi={t:>5}: TV {:.4} ({:.4})  separable bound {n:.4}  albedo rel {:.4}  T model {:.4} walk {:.4}",
                         r.lobe_tv, r.lobe_noise, r.albedo_rel, r.model_t, r.walk_t
                     ),
                 ));
@@ -380,15 +383,16 @@ fn generate_dielectric_lobe_table() {
     ] {
         let walks = walks_env.unwrap_or(default);
         let t = std::time::Instant::now();
-        let (j, asym) = dielectric_joint_from_walk(kind, walks);
+        let [(js, asym), (jc, asym_c)] = dielectric_joint_from_walk(kind, walks);
         println!(
-            "{kind:?}: {walks} walks per row in {:.1} s; asymmetry before symmetrising per node {:.4?}",
+            "{kind:?}: {walks} walks per row in {:.1} s; asymmetry before symmetrising per node {:.4?} (against the height-correlated model {:.4?})",
             t.elapsed().as_secs_f64(),
-            asym
+            asym,
+            asym_c
         );
-        joints.push(j);
+        joints.push((js, jc));
     }
-    let bytes = encode_dielectric_tables([&joints[0], &joints[1]]);
+    let bytes = encode_dielectric_tables([&joints[0].0, &joints[1].0, &joints[0].1, &joints[1].1]);
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/src/multiscatter/dielectric_lobe.bin"

@@ -1009,6 +1009,7 @@ impl Principled {
                     eta,
                     crate::fresnel::FresnelMode::Exact,
                     alpha,
+                    false,
                 )
             });
             let aniso = match (&roughness, &anisotropic) {

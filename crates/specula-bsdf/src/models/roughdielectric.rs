@@ -6,12 +6,16 @@
 //! Transmission: f_t = |wi·m||wo·m| / (|cosθi||cosθo|) · η²(1−F)·D·G / (wi·m + η wo·m)²,
 //! scaled by 1/η² when transporting radiance (the solid-angle compression at the interface).
 //!
-//! Specula option `multiscatter` (default `false`, Mitsuba's model): add reciprocal
-//! energy-compensation lobes (reflection and transmission, from both sides) after Kulla &
-//! Conty, with shapes measured from the random walk on the microsurface
-//! ([`crate::multiscatter::dielectric_lobe`], sampled from their table), so that a white rough
-//! interface scatters R + T = 1 at every roughness and incidence (see
-//! [`crate::multiscatter`]; the tables depend on η and are built with the material).
+//! Specula option `multiscatter` (default `false`, Mitsuba's model): the single-scattering
+//! part uses the height-correlated masking-shadowing instead of G1(ωi)G1(ωo)
+//! ([`MicrofacetDistribution::g2_correlated`]: 1/(1 + Λi + Λo) for reflection,
+//! B(1 + Λi, 1 + Λo) for transmission, Heitz 2014), which is exactly the first event of the
+//! random walk on the microsurface, and reciprocal energy-compensation lobes (reflection and
+//! transmission, from both sides) after Kulla & Conty are added, with shapes measured from that
+//! walk ([`crate::multiscatter::dielectric_lobe`], sampled from their table), so that a white
+//! rough interface scatters R + T = 1 at every roughness and incidence (see
+//! [`crate::multiscatter`]; the tables depend on η and are built with the material). The
+//! sampling is unchanged (visible normals of ωi), its density too; only the value differs.
 //!
 //! **Dispersion** (Specula's `dispersion`, `abbe_number`, `cauchy_*`, `sellmeier_*`
 //! parameters, see [`crate::build`]): in RGB mode the index at the d line (587.56 nm) is used.
@@ -106,7 +110,7 @@ impl RoughDielectric {
                 (FloatParam::Const(u), FloatParam::Const(v)) => Some(table_alpha(*u, *v)),
                 _ => None,
             };
-            DielectricEnergy::get(self.distribution, self.eta, self.fresnel, alpha)
+            DielectricEnergy::get(self.distribution, self.eta, self.fresnel, alpha, true)
         });
         self
     }
@@ -359,7 +363,13 @@ impl RoughDielectric {
             return none;
         }
         let g1_i = distr.smith_g1(wi, m);
-        let g = g1_i * distr.smith_g1(wo, m);
+        // multiscatter: the walk's own (height-correlated) single scattering, so that the
+        // compensation lobe is the walk's non-negative multiple scattering
+        let g = if self.multiscatter.is_some() {
+            distr.g2_correlated(wi, wo, m)
+        } else {
+            g1_i * distr.smith_g1(wo, m)
+        };
         // for reflection wi·m = wo·m: the average makes f exactly symmetric in (wi, wo), which
         // matters near the critical angle where R(cosθ) has a square-root singularity
         let fr = self

@@ -260,7 +260,13 @@ impl RoughPlastic {
             return self;
         }
         let alpha = self.alpha.min(1.0);
-        let ms = DielectricEnergy::get(self.distribution, self.eta, self.fresnel, Some(alpha));
+        let ms = DielectricEnergy::get(
+            self.distribution,
+            self.eta,
+            self.fresnel,
+            Some(alpha),
+            false,
+        );
         let q = ms.at(alpha);
         let into_base = 1.0 - ms.reflect_fraction(&q, true);
         for (i, t) in self.external_transmittance.iter_mut().enumerate() {

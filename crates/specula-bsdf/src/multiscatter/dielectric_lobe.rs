@@ -27,18 +27,29 @@
 //! distributed ∝ μ within each bin of each side, fixed seeds (150 000 walks per (node, incident
 //! bin) for GGX, 50 000 for Beckmann, whose walk costs ~10× more; ≈ 2 + 2.5 minutes of two
 //! cores). Every walk that scatters twice or
-//! more counts with weight 1; one that leaves after its first event counts with the part of the
-//! walk's (height-correlated) single scattering that the model's separable G1(ωi)G1(ωo) does
-//! not have: 1 − G1(ωo)/P, with P the walk's probability of escaping after the event —
-//! (1 + Λi)/(1 + Λi + Λo) after a reflection, (1 + Λi) B(1 + Λi, 1 + Λo) after a refraction
-//! (the heights the ray meets, C1 uniform, density (1 + Λi) C1^Λi, escape upwards C1^Λo,
-//! downwards (1 − C1)^Λo). A reflection's weight is positive; a refraction's is negative (the
-//! separable model transmits *more* in single scattering than the walk). The histogram is the
-//! exact deficit lobe f_walk − f_ss in expectation; weighted by the incident bin's projected
-//! solid angle, with the rows of the inside incidences multiplied by η², it is a joint over
-//! both sides that reciprocity makes symmetric, and it is symmetrised. The file stores it per
-//! (distribution, η node, roughness node) as 16-bit square roots of the upper triangle (negative
-//! cells, where single-scattering refraction dominates the deficit, are stored as 0).
+//! more counts with weight 1. One that leaves after its first event is the walk's
+//! (height-correlated) single scattering: the escape probability after the event is
+//! P = (1 + Λi)/(1 + Λi + Λo) after a reflection and (1 + Λi) B(1 + Λi, 1 + Λo) after a
+//! refraction (the heights the ray meets, C1 uniform, density (1 + Λi) C1^Λi, escape upwards
+//! C1^Λo, downwards (1 − C1)^Λo), i.e. masking-shadowing G1(ωi) P =
+//! [`crate::microfacet::MicrofacetDistribution::g2_correlated`] (checked against the walk by
+//! `dielectric_first_event_is_height_correlated`). Two joints come from the same walks:
+//!
+//! - against the **height-correlated** single-scattering model (`roughdielectric
+//!   multiscatter=true`), which has exactly that first event, such a walk counts 0: the deficit
+//!   is the walk's multiple scattering, non-negative;
+//! - against the **separable** G1(ωi)G1(ωo) (`principled`'s transmission, `roughplastic`'s
+//!   coat) it counts with the part the model lacks, 1 − G1(ωo)/P: positive after a reflection,
+//!   negative after a refraction (the separable model transmits *more* in single scattering
+//!   than the walk; no non-negative lobe can then match the walk closer than that negative
+//!   part, [`negative_deficit`]).
+//!
+//! Each histogram is the exact deficit lobe f_walk − f_ss in expectation; weighted by the
+//! incident bin's projected solid angle, with the rows of the inside incidences multiplied by
+//! η², it is a joint over both sides that reciprocity makes symmetric, and it is symmetrised.
+//! The file stores both per (distribution, η node, roughness node) as 16-bit square roots of
+//! the upper triangle (negative cells of the separable joint are stored as 0); a table of
+//! [`DielectricEnergy`] reads the joint of its own model ([`DielectricEnergy::correlated`]).
 //!
 //! **Normalisation** ([`DielectricLobe::build`], per material, when its energy tables are
 //! built): the joint is interpolated linearly in ln η and √α between the nodes (each node's
@@ -82,6 +93,10 @@ pub const DIEL_ALPHAS: usize = 7;
 /// (every second node of the albedo tables): the normalisation holds exactly at each, to second
 /// order between them.
 pub const TEXTURED_ALPHAS: usize = 17;
+/// [`TEXTURED_ALPHAS`] for the height-correlated model (every node of the albedo tables): its
+/// deficit at grazing incidence is mostly the walk's multiple transmission, which changes
+/// faster with α, and 17 nodes left 0.4 % between them (GGX, η = 1.5, α = 0.6, μ = 0.03).
+pub const TEXTURED_ALPHAS_CORRELATED: usize = 33;
 /// μ bins of both sides: outside (0..LOBE_MU), then inside.
 pub const NR: usize = 2 * LOBE_MU;
 /// Cells of one row (μ bin of either side, Δφ bin).
@@ -95,7 +110,7 @@ const CSLICE: usize = LOBE_MU * CROW;
 const MEASURED: usize = DIEL_ETAS.len() * (DIEL_ALPHAS - 1);
 
 /// ln Γ(x) for x ≥ 1 (Stirling's series after shifting x above 7; ~1e-10).
-fn ln_gamma(x: f64) -> f64 {
+pub(crate) fn ln_gamma(x: f64) -> f64 {
     let (mut x, mut acc) = (x, 0.0f64);
     while x < 7.0 {
         acc -= x.ln();
@@ -108,12 +123,17 @@ fn ln_gamma(x: f64) -> f64 {
 }
 
 /// The weight of a walk that leaves after its first event (see the module): the part of the
-/// walk's height-correlated single scattering that the separable model lacks.
+/// walk's height-correlated single scattering that the separable model lacks (`correlated`:
+/// the height-correlated model's, which lacks none of it).
 fn single_deficit(
     walk: &crate::models::microsurface_walk::MicrosurfaceWalk,
     wi: Vec3,
     wo: Vec3,
+    correlated: bool,
 ) -> f64 {
+    if correlated {
+        return 0.0;
+    }
     let up = |w: Vec3| DVec3::new(w.x as f64, w.y as f64, (w.z as f64).abs()).normalize();
     let li = walk.lambda(up(wi));
     let lo = walk.lambda(up(wo));
@@ -129,10 +149,12 @@ fn single_deficit(
 
 /// The symmetrised joints of the white dielectric's deficit lobes of a distribution (see the
 /// module): per measured node (η node major, roughness node 1.. minor) [`NR`] × [`NR`] ×
-/// [`LOBE_PHI`] values, from `walks` walks per (node, incident bin), fixed seeds. Also the
-/// relative asymmetry of the unsymmetrised estimate per node (Σ|J − Jᵀ| / 2Σ|J|), a check of
-/// the walk's (generalised) reciprocity and of the estimate's noise.
-pub fn dielectric_joint_from_walk(kind: MicrofacetType, walks: usize) -> (Vec<f64>, Vec<f64>) {
+/// [`LOBE_PHI`] values, from `walks` walks per (node, incident bin), fixed seeds; element 0
+/// against the separable single-scattering model, element 1 against the height-correlated one
+/// (the same walks). Also the relative asymmetry of the unsymmetrised estimate per node
+/// (Σ|J − Jᵀ| / 2Σ|J|), a check of the walk's (generalised) reciprocity and of the estimate's
+/// noise.
+pub fn dielectric_joint_from_walk(kind: MicrofacetType, walks: usize) -> [(Vec<f64>, Vec<f64>); 2] {
     use crate::models::microsurface_walk::{MicrosurfaceWalk, WalkMaterial};
     let rows = parallel_rows(MEASURED * NR, |n| {
         let (node, r) = (n / NR, n % NR);
@@ -142,7 +164,7 @@ pub fn dielectric_joint_from_walk(kind: MicrofacetType, walks: usize) -> (Vec<f6
         let mut rng = crate::rng::Pcg32::new(n as u64 + 1, 0x6469_656c);
         let (inside, i) = (r >= LOBE_MU, r % LOBE_MU);
         let (m0, m1) = mu_edges(i);
-        let mut h = vec![0.0f64; DROW];
+        let mut h = vec![0.0f64; 2 * DROW];
         for _ in 0..walks {
             let mu = (m0 * m0 + rng.next_f64() * (m1 * m1 - m0 * m0))
                 .sqrt()
@@ -155,23 +177,33 @@ pub fn dielectric_joint_from_walk(kind: MicrofacetType, walks: usize) -> (Vec<f6
             if s.wo.z == 0.0 || !s.wo.is_finite() {
                 continue;
             }
-            let w = if s.bounces == 1 {
-                single_deficit(&walk, wi, s.wo)
-            } else {
-                1.0
-            };
             let ro = mu_bin(s.wo.z.abs()) + if s.wo.z < 0.0 { LOBE_MU } else { 0 };
-            h[ro * LOBE_PHI + phi_bin(wi, s.wo)] += w;
+            let cell = ro * LOBE_PHI + phi_bin(wi, s.wo);
+            for (k, correlated) in [false, true].into_iter().enumerate() {
+                h[k * DROW + cell] += if s.bounces == 1 {
+                    single_deficit(&walk, wi, s.wo, correlated)
+                } else {
+                    1.0
+                };
+            }
         }
         let scale = bin_m(i) / walks as f64 * if inside { (eta * eta) as f64 } else { 1.0 };
         h.iter_mut().for_each(|v| *v *= scale);
         h
     });
-    let mut joint = vec![0.0f64; MEASURED * DSLICE];
-    for (n, h) in rows.iter().enumerate() {
-        let (node, r) = (n / NR, n % NR);
-        joint[node * DSLICE + r * DROW..][..DROW].copy_from_slice(h);
-    }
+    std::array::from_fn(|k| {
+        let mut joint = vec![0.0f64; MEASURED * DSLICE];
+        for (n, h) in rows.iter().enumerate() {
+            let (node, r) = (n / NR, n % NR);
+            joint[node * DSLICE + r * DROW..][..DROW].copy_from_slice(&h[k * DROW..][..DROW]);
+        }
+        symmetrised(joint)
+    })
+}
+
+/// The joint made symmetric (the mean of it and its transpose, per node), with the relative
+/// asymmetry it had per node.
+fn symmetrised(mut joint: Vec<f64>) -> (Vec<f64>, Vec<f64>) {
     let mut asym = vec![0.0f64; MEASURED];
     for (node, a) in asym.iter_mut().enumerate() {
         let s = &mut joint[node * DSLICE..][..DSLICE];
@@ -198,11 +230,14 @@ pub fn dielectric_joint_from_walk(kind: MicrofacetType, walks: usize) -> (Vec<f6
 /// energy, `samples` walks): where the separable model's single scattering exceeds the walk's
 /// (its refraction, see the module). Any non-negative compensation lobe C added to f_ss is at
 /// least N from the walk in that comparison's total variation: ½Σ|C − D| ≥ N when ΣC = ΣD.
+/// `correlated`: against the height-correlated single-scattering model, whose deficit has no
+/// negative part (N = 0 up to the walk's agreement with it).
 pub fn negative_deficit(
     walk: &crate::models::microsurface_walk::MicrosurfaceWalk,
     wi: Vec3,
     samples: usize,
     seed: u64,
+    correlated: bool,
 ) -> f64 {
     use crate::models::microsurface_walk::{lobe_bin, LOBE_MU_BINS, LOBE_PHI_BINS};
     let mut h = vec![0.0f64; 2 * LOBE_MU_BINS * LOBE_PHI_BINS];
@@ -212,7 +247,7 @@ pub fn negative_deficit(
             continue;
         };
         let w = if s.bounces == 1 {
-            single_deficit(walk, wi, s.wo)
+            single_deficit(walk, wi, s.wo, correlated)
         } else {
             1.0
         };
@@ -221,14 +256,15 @@ pub fn negative_deficit(
     h.iter().map(|v| (-v).max(0.0)).sum::<f64>() / samples as f64
 }
 
-const MAGIC: &[u8; 8] = b"SPMSDIE1";
+const MAGIC: &[u8; 8] = b"SPMSDIE2";
 /// Values of a node's upper triangle.
 const TRI: usize = NR * (NR + 1) / 2 * LOBE_PHI;
 
-/// The data file for the joints of GGX and Beckmann (in that order): the magic, then per
-/// distribution and measured node a little-endian f32 scale and the upper triangle (rows
+/// The data file for the joints of GGX and Beckmann against the separable single-scattering
+/// model, then of GGX and Beckmann against the height-correlated one (in that order): the
+/// magic, then per joint set and measured node a little-endian f32 scale and the upper triangle (rows
 /// r ≤ s, then Δφ) as u16 q with value = scale (q / 65535)² (negative values as 0).
-pub fn encode_dielectric_tables(joints: [&[f64]; 2]) -> Vec<u8> {
+pub fn encode_dielectric_tables(joints: [&[f64]; 4]) -> Vec<u8> {
     let mut out = MAGIC.to_vec();
     for j in joints {
         for node in 0..MEASURED {
@@ -255,15 +291,19 @@ pub fn encode_dielectric_tables(joints: [&[f64]; 2]) -> Vec<u8> {
 
 /// The joints of one distribution from [`encode_dielectric_tables`]'s bytes, each normalised
 /// to unit total (`None`: no or a malformed file).
-fn decode_dielectric_table(bytes: &[u8], kind: MicrofacetType) -> Option<Vec<f32>> {
+fn decode_dielectric_table(
+    bytes: &[u8],
+    kind: MicrofacetType,
+    correlated: bool,
+) -> Option<Vec<f32>> {
     let per = MEASURED * (4 + 2 * TRI);
-    if bytes.len() != MAGIC.len() + 2 * per || &bytes[..MAGIC.len()] != MAGIC {
+    if bytes.len() != MAGIC.len() + 4 * per || &bytes[..MAGIC.len()] != MAGIC {
         return None;
     }
     let k = match kind {
         MicrofacetType::Ggx => 0,
         MicrofacetType::Beckmann => 1,
-    };
+    } + if correlated { 2 } else { 0 };
     let mut p = MAGIC.len() + k * per;
     let mut joint = vec![0.0f32; MEASURED * DSLICE];
     for node in 0..MEASURED {
@@ -295,22 +335,24 @@ fn decode_dielectric_table(bytes: &[u8], kind: MicrofacetType) -> Option<Vec<f32
 /// specula-bsdf --test multiscatter generate_dielectric_lobe_table -- --ignored`).
 const DIELECTRIC_DATA: &[u8] = include_bytes!("dielectric_lobe.bin");
 
-/// The decoded joints of a distribution (`None` without data: Kulla–Conty's lobes).
-fn measured_joints(kind: MicrofacetType) -> Option<&'static [f32]> {
-    static GGX: OnceLock<Option<Vec<f32>>> = OnceLock::new();
-    static BECKMANN: OnceLock<Option<Vec<f32>>> = OnceLock::new();
-    let cell = match kind {
-        MicrofacetType::Ggx => &GGX,
-        MicrofacetType::Beckmann => &BECKMANN,
-    };
-    cell.get_or_init(|| decode_dielectric_table(DIELECTRIC_DATA, kind))
+/// The decoded joints of a distribution against the separable or (`correlated`) the
+/// height-correlated single-scattering model (`None` without data: Kulla–Conty's lobes).
+fn measured_joints(kind: MicrofacetType, correlated: bool) -> Option<&'static [f32]> {
+    static CELLS: [OnceLock<Option<Vec<f32>>>; 4] = [const { OnceLock::new() }; 4];
+    let k = match kind {
+        MicrofacetType::Ggx => 0,
+        MicrofacetType::Beckmann => 1,
+    } + if correlated { 2 } else { 0 };
+    CELLS[k]
+        .get_or_init(|| decode_dielectric_table(DIELECTRIC_DATA, kind, correlated))
         .as_deref()
 }
 
 /// Whether the committed data decodes (false: the lobes are Kulla–Conty's).
 pub fn dielectric_data_present() -> bool {
-    measured_joints(MicrofacetType::Ggx).is_some()
-        && measured_joints(MicrofacetType::Beckmann).is_some()
+    [MicrofacetType::Ggx, MicrofacetType::Beckmann]
+        .into_iter()
+        .all(|k| measured_joints(k, false).is_some() && measured_joints(k, true).is_some())
 }
 
 /// The interpolated, unit-total joint at (η, α) of a joint set `j` (η < 1: the nodes of 1/η
@@ -424,7 +466,7 @@ impl DielectricLobe {
     /// The lobes of `e` (its tables must be complete; its own `lobe` is not read) at `alphas`
     /// (one roughness, or the [`TEXTURED_ALPHAS`] nodes).
     pub(super) fn build(kind: MicrofacetType, e: &DielectricEnergy, alphas: &[f32]) -> Self {
-        let data = measured_joints(kind);
+        let data = measured_joints(kind, e.correlated);
         let eta = e.eta;
         let eta2 = (eta * eta) as f64;
         let nodes = alphas.len();
@@ -723,18 +765,22 @@ mod tests {
     fn rows_integrate_to_the_deficit() {
         assert!(dielectric_data_present(), "dielectric_lobe.bin");
         for kind in [MicrofacetType::Ggx, MicrofacetType::Beckmann] {
-            for (eta, alpha, textured, tol) in [
-                (1.5f32, 1.0f32, false, 1e-3),
-                (1.33, 0.3, false, 1e-3),
-                (2.4, 0.6, false, 1e-3),
-                (1.0 / 1.5, 0.5, false, 1e-3),
-                (1.5, 0.6, true, 3e-3),
+            // correlated: roughdielectric's tables; separable: principled's and the coat's
+            for (eta, alpha, textured, tol, correlated) in [
+                (1.5f32, 1.0f32, false, 1e-3, true),
+                (1.5, 1.0, false, 1e-3, false),
+                (1.33, 0.3, false, 1e-3, false),
+                (2.4, 0.6, false, 1e-3, true),
+                (1.0 / 1.5, 0.5, false, 1e-3, true),
+                (1.5, 0.6, true, 3e-3, true),
+                (1.5, 0.6, true, 3e-3, false),
             ] {
                 let e = DielectricEnergy::get(
                     kind,
                     eta,
                     FresnelMode::Exact,
                     (!textured).then_some(alpha),
+                    correlated,
                 );
                 assert!(e.lobe.measured);
                 let mut splits = Vec::new();
@@ -785,13 +831,18 @@ mod tests {
     #[test]
     fn sampling_matches_the_density() {
         let mut rng = crate::rng::Pcg32::new(5, 7);
-        for (kind, eta, alpha, textured, mu_i) in [
-            (MicrofacetType::Ggx, 1.5f32, 0.7f32, false, 0.1f32),
-            (MicrofacetType::Ggx, 1.5, 0.7, false, -0.4),
-            (MicrofacetType::Beckmann, 2.4, 0.45, true, 0.8),
+        for (kind, eta, alpha, textured, mu_i, correlated) in [
+            (MicrofacetType::Ggx, 1.5f32, 0.7f32, false, 0.1f32, true),
+            (MicrofacetType::Ggx, 1.5, 0.7, false, -0.4, false),
+            (MicrofacetType::Beckmann, 2.4, 0.45, true, 0.8, true),
         ] {
-            let e =
-                DielectricEnergy::get(kind, eta, FresnelMode::Exact, (!textured).then_some(alpha));
+            let e = DielectricEnergy::get(
+                kind,
+                eta,
+                FresnelMode::Exact,
+                (!textured).then_some(alpha),
+                correlated,
+            );
             let lt = &e.lobe;
             let wi = Vec3::new((1.0 - mu_i * mu_i).sqrt(), 0.0, mu_i);
             let n = 400_000;

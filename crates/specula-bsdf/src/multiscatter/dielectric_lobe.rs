@@ -76,7 +76,8 @@
 //! table and internal reflectance) stays exact.
 
 use super::lobe::{
-    azimuth, bin_m, mu_bin, mu_edges, phi_bin, t_edges, FastBins, A_C, KC_BLEND, LOBE_MU, LOBE_PHI,
+    azimuth, bin_m, decode_symmetric, encode_symmetric, mu_bin, mu_edges, phi_bin, t_edges,
+    FastBins, A_C, KC_BLEND, LOBE_MU, LOBE_PHI,
 };
 use super::{alpha_node, gauss_legendre, parallel_rows, DielectricEnergy};
 use crate::microfacet::MicrofacetType;
@@ -262,28 +263,12 @@ const TRI: usize = NR * (NR + 1) / 2 * LOBE_PHI;
 
 /// The data file for the joints of GGX and Beckmann against the separable single-scattering
 /// model, then of GGX and Beckmann against the height-correlated one (in that order): the
-/// magic, then per joint set and measured node a little-endian f32 scale and the upper triangle (rows
-/// r ≤ s, then Δφ) as u16 q with value = scale (q / 65535)² (negative values as 0).
+/// magic, then per joint set and measured node [`encode_symmetric`]'s record (rows, rows, Δφ).
 pub fn encode_dielectric_tables(joints: [&[f64]; 4]) -> Vec<u8> {
     let mut out = MAGIC.to_vec();
     for j in joints {
         for node in 0..MEASURED {
-            let s = &j[node * DSLICE..][..DSLICE];
-            let max = s.iter().cloned().fold(0.0f64, f64::max);
-            out.extend_from_slice(&(max as f32).to_le_bytes());
-            for r in 0..NR {
-                for q in r..NR {
-                    for c in 0..LOBE_PHI {
-                        let v = s[r * DROW + q * LOBE_PHI + c];
-                        let code = if max > 0.0 {
-                            ((v / max).max(0.0).sqrt() * 65535.0).round() as u16
-                        } else {
-                            0
-                        };
-                        out.extend_from_slice(&code.to_le_bytes());
-                    }
-                }
-            }
+            encode_symmetric(&mut out, &j[node * DSLICE..][..DSLICE], NR);
         }
     }
     out
@@ -306,22 +291,21 @@ fn decode_dielectric_table(
     } + if correlated { 2 } else { 0 };
     let mut p = MAGIC.len() + k * per;
     let mut joint = vec![0.0f32; MEASURED * DSLICE];
+    let mut node64 = vec![0.0f64; DSLICE];
     for node in 0..MEASURED {
-        let scale = f32::from_le_bytes(bytes[p..p + 4].try_into().ok()?) as f64;
-        p += 4;
-        let s = &mut joint[node * DSLICE..][..DSLICE];
+        decode_symmetric(bytes, &mut p, &mut node64, NR)?;
         let mut total = 0.0f64;
         for r in 0..NR {
             for q in r..NR {
                 for c in 0..LOBE_PHI {
-                    let x = u16::from_le_bytes([bytes[p], bytes[p + 1]]) as f64 / 65535.0;
-                    p += 2;
-                    let v = scale * x * x;
-                    s[r * DROW + q * LOBE_PHI + c] = v as f32;
-                    s[q * DROW + r * LOBE_PHI + c] = v as f32;
+                    let v = node64[r * DROW + q * LOBE_PHI + c];
                     total += if r == q { v } else { 2.0 * v };
                 }
             }
+        }
+        let s = &mut joint[node * DSLICE..][..DSLICE];
+        for (d, &v) in s.iter_mut().zip(&node64) {
+            *d = v as f32;
         }
         if total > 0.0 {
             let inv = (1.0 / total) as f32;

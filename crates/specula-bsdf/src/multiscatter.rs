@@ -1332,30 +1332,11 @@ impl DielectricEnergy {
         self.lobe.sample(ms.alpha, wi, u, u2)
     }
 
-    /// The reflection-only compensation lobe of a coat (`roughplastic`; both directions
-    /// outside): c_o(μi) c_o(μo) times the coat's shape, integrating to
-    /// [`Self::reflect_fraction`] × c_o(μi).
+    /// Of the compensation energy for an incidence from outside at cosine `mu`, the part
+    /// its lobes reflect ([`DielectricLobe::reflected_share`]).
     #[inline]
-    pub fn coat_lobe(&self, ms: &DielectricMs, wi: Vec3, wo: Vec3) -> f32 {
-        let ci = 1.0 - self.e(ms, true, wi.z);
-        let co = 1.0 - self.e(ms, true, wo.z);
-        ci.max(0.0) * co.max(0.0) * self.lobe.coat(ms.alpha, wi, wo)
-    }
-
-    /// Of the energy the compensation adds for `wi`, the fraction reflected.
-    #[inline]
-    pub fn reflect_fraction(&self, ms: &DielectricMs, outside: bool) -> f32 {
-        let (avg, x) = if outside {
-            (ms.e_out_avg, ms.x)
-        } else {
-            (ms.e_in_avg, ms.x / (self.eta * self.eta))
-        };
-        let miss = 1.0 - avg;
-        if miss <= 1e-6 {
-            1.0
-        } else {
-            ((miss - x) / miss).clamp(0.0, 1.0)
-        }
+    pub fn reflected_share(&self, ms: &DielectricMs, mu: f32) -> f32 {
+        self.lobe.reflected_share(ms.alpha, mu)
     }
 }
 

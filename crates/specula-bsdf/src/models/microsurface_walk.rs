@@ -591,6 +591,30 @@ pub fn compare<B: crate::bsdf::BsdfModel + ?Sized>(
     samples: usize,
     seed: u64,
 ) -> Agreement {
+    compare_with(model, walk, wi, samples, seed, false)
+}
+
+/// [`compare`] against the walk's reflection alone: the light the walk transmits counts as
+/// absorbed (the ground truth of a dielectric coat over a black base, e.g. `roughplastic`
+/// with `diffuse_reflectance=0`).
+pub fn compare_reflection<B: crate::bsdf::BsdfModel + ?Sized>(
+    model: &B,
+    walk: &MicrosurfaceWalk,
+    wi: Vec3,
+    samples: usize,
+    seed: u64,
+) -> Agreement {
+    compare_with(model, walk, wi, samples, seed, true)
+}
+
+fn compare_with<B: crate::bsdf::BsdfModel + ?Sized>(
+    model: &B,
+    walk: &MicrosurfaceWalk,
+    wi: Vec3,
+    samples: usize,
+    seed: u64,
+    reflection_only: bool,
+) -> Agreement {
     let bins = 2 * LOBE_MU_BINS * LOBE_PHI_BINS;
     let ctx = crate::bsdf::BsdfContext::IMPORTANCE;
     let sp = crate::bsdf::ShadingPoint::default();
@@ -617,7 +641,10 @@ pub fn compare<B: crate::bsdf::BsdfModel + ?Sized>(
     }
     let mut rng = Pcg32::new(seed, 22);
     for i in 0..samples {
-        if let Some(s) = walk.sample(wi, &mut rng) {
+        if let Some(s) = walk
+            .sample(wi, &mut rng)
+            .filter(|s| !reflection_only || s.wo.z * wi.z > 0.0)
+        {
             let w = s.weight.0.map(f64::from);
             for c in 0..3 {
                 sw[c] += w[c];

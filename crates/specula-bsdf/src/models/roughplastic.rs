@@ -6,20 +6,26 @@
 //! internal reflectance, exactly as Mitsuba does so that renders match.
 //!
 //! Specula option `multiscatter` (default `false`, Mitsuba's model): the coat becomes an
-//! energy-compensated rough interface after Kulla & Conty ([`crate::multiscatter`]). The
-//! energy its single scattering loses, 1 − E(μ), is split by the hemispherically averaged
-//! fraction of `roughdielectric`'s measured lobes: the reflected part is added as a
-//! compensation lobe to the coat's glossy reflection, with the outside reflection shape
-//! measured from the random walk ([`crate::multiscatter::DielectricEnergy::coat_lobe`];
-//! cosine-sampled with the diffuse base), the transmitted part enters the base (it is added to
-//! the coat transmittance T(μ); the base has no shape to give it), and the internal
-//! reflectance is the one that reciprocity implies, 1 − (2∫T(μ)μ dμ)/η², so that a white base
-//! under the coat reflects all the light (white furnace 1 ± 0.5 %).
+//! energy-compensated rough interface ([`crate::multiscatter`]), the same as
+//! `roughdielectric multiscatter=true`: its single-scattering reflection is the random walk's
+//! first event, height-correlated ([`MicrofacetDistribution::g2_correlated`] in place of
+//! G1·G1), and the energy it loses, 1 − E(μ) (E: R + T of that model), is split as the
+//! measured compensation lobes split it for that incidence
+//! ([`crate::multiscatter::dielectric_lobe`]): the reflected part is the lobes' outside
+//! reflection block, added to the coat's glossy reflection (cosine-sampled with the diffuse
+//! base), the transmitted part enters the base (the base has no shape to give it): the coat
+//! transmittance becomes T(μ) = T_ss(μ) + (1 − E(μ))(1 − share(μ)), evaluated exactly rather
+//! than from the 64-entry table, and the internal reflectance is the one that reciprocity
+//! implies, 1 − (2∫T(μ)μ dμ)/η², so that a white base under the coat reflects all the light
+//! (white furnace 1 ± 0.5 %). With a black base the coat alone is a rough dielectric
+//! interface whose transmitted light is absorbed: its reflection agrees with the random walk's
+//! (test `plastic_coat_agrees_with_the_walk`).
 
 use crate::bsdf::*;
 use crate::frame::{reflect, refract};
 use crate::fresnel::FresnelMode;
 use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
+use crate::multiscatter::lobe::LOBE_MU;
 use crate::multiscatter::DielectricEnergy;
 use crate::spectrum::Spectrum;
 use crate::warp;
@@ -218,6 +224,19 @@ fn compute_coat_tables(
     (external_transmittance, internal_reflectance)
 }
 
+/// With `multiscatter`: the light that crosses the compensated coat from outside at cosine
+/// `mu`, T_ss(μ) + (1 − E(μ))(1 − share(μ)): the height-correlated single-scattering
+/// transmission and the part of the lost energy the measured lobes transmit.
+#[inline]
+fn coat_transmittance(
+    ms: &DielectricEnergy,
+    q: &crate::multiscatter::DielectricMs,
+    mu: f32,
+) -> f32 {
+    let c = (1.0 - ms.e(q, true, mu)).max(0.0);
+    ms.t_out.e(q.alpha, mu) + c * (1.0 - ms.reflected_share(q, mu))
+}
+
 impl RoughPlastic {
     #[allow(clippy::too_many_arguments)]
     pub fn new(
@@ -260,28 +279,23 @@ impl RoughPlastic {
             return self;
         }
         let alpha = self.alpha.min(1.0);
-        let ms = DielectricEnergy::get(
-            self.distribution,
-            self.eta,
-            self.fresnel,
-            Some(alpha),
-            false,
-        );
+        let ms =
+            DielectricEnergy::get(self.distribution, self.eta, self.fresnel, Some(alpha), true);
         let q = ms.at(alpha);
-        let into_base = 1.0 - ms.reflect_fraction(&q, true);
         for (i, t) in self.external_transmittance.iter_mut().enumerate() {
             let mu = i as f32 / (TRANSMITTANCE_RES - 1) as f32;
-            *t = ms.t_out.e(alpha, mu) + into_base * (1.0 - ms.e_out.e(alpha, mu));
+            *t = coat_transmittance(&ms, &q, mu);
         }
-        // 2∫T(μ)μ dμ of the piecewise-linear table (two-point Gauss–Legendre is exact)
-        let h = 1.0 / (TRANSMITTANCE_RES - 1) as f64;
+        // 2∫T(μ)μ dμ of the transmittance the model evaluates (piecewise smooth: Gauss–Legendre
+        // within each μ bin of the lobe's shares)
+        let (gx, gw) = crate::quad::gauss_legendre_cached(8);
         let mut t_avg = 0.0f64;
-        for i in 0..TRANSMITTANCE_RES - 1 {
-            for s in [0.5 - 0.5 / 3f64.sqrt(), 0.5 + 0.5 / 3f64.sqrt()] {
-                let mu = (i as f64 + s) * h;
-                let t = self.external_transmittance[i] as f64 * (1.0 - s)
-                    + self.external_transmittance[i + 1] as f64 * s;
-                t_avg += 2.0 * t * mu * 0.5 * h;
+        for b in 0..LOBE_MU {
+            let (m0, m1) = crate::multiscatter::lobe::mu_edges(b);
+            for (x, w) in gx.iter().zip(gw.iter()) {
+                let mu = m0 + (m1 - m0) * 0.5 * (x + 1.0);
+                let t = coat_transmittance(&ms, &q, mu as f32) as f64;
+                t_avg += 2.0 * t * mu * w * 0.5 * (m1 - m0);
             }
         }
         self.internal_reflectance = (1.0 - t_avg / (self.eta as f64).powi(2)) as f32;
@@ -289,20 +303,23 @@ impl RoughPlastic {
         self
     }
 
-    /// The coat's compensation lobe (reflection, outside; the measured shape normalised to
-    /// the averaged reflected fraction, [`DielectricEnergy::coat_lobe`]) and its energy for
-    /// `wi`.
+    /// The coat's compensation lobe for (wi, wo) (reflection, outside: the measured lobes'
+    /// reflection block, [`DielectricEnergy::lobe_eval`]) and its energy for `wi`.
     #[inline]
     fn ms_lobe(&self, ms: &DielectricEnergy, wi: Vec3, wo: Vec3) -> (f32, f32) {
         let q = ms.at(self.alpha);
-        let fr = ms.coat_lobe(&q, wi, wo);
-        let energy = ms.reflect_fraction(&q, true) * (1.0 - ms.e(&q, true, wi.z));
+        let (fr, _) = ms.lobe_eval(&q, wi, wo);
+        let energy = ms.reflected_share(&q, wi.z) * (1.0 - ms.e(&q, true, wi.z));
         (fr, energy)
     }
 
-    /// The coat's transmittance for a cosine (linear interpolation in the table).
+    /// The coat's transmittance for a cosine: linear interpolation in the table (Mitsuba's);
+    /// with `multiscatter`, its exact value (see [`coat_transmittance`]).
     #[inline]
     pub fn transmittance(&self, cos_theta: f32) -> f32 {
+        if let Some(ms) = &self.multiscatter {
+            return coat_transmittance(ms, &ms.at(self.alpha), cos_theta);
+        }
         let x = cos_theta * (TRANSMITTANCE_RES - 1) as f32;
         let i = (x.max(0.0) as usize).min(TRANSMITTANCE_RES - 2);
         let w1 = x - i as f32;
@@ -378,7 +395,13 @@ impl BsdfModel for RoughPlastic {
         let d = distr.eval(h);
         let g1_i = distr.smith_g1(wi, h);
         let f = self.fresnel.eval(wi.dot(h), self.eta).r;
-        let g = g1_i * distr.smith_g1(wo, h);
+        // with `multiscatter` the coat's single scattering is the walk's first event,
+        // height-correlated (see the module)
+        let g = if self.multiscatter.is_some() {
+            distr.g2_correlated(wi, wo, h)
+        } else {
+            g1_i * distr.smith_g1(wo, h)
+        };
         let (ms_value, ms_energy) = match &self.multiscatter {
             Some(ms) => self.ms_lobe(ms, wi, wo),
             None => (0.0, 0.0),

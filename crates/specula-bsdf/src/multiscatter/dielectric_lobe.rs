@@ -35,11 +35,12 @@
 //! [`crate::microfacet::MicrofacetDistribution::g2_correlated`] (checked against the walk by
 //! `dielectric_first_event_is_height_correlated`). Two joints come from the same walks:
 //!
-//! - against the **height-correlated** single-scattering model (`roughdielectric
-//!   multiscatter=true`), which has exactly that first event, such a walk counts 0: the deficit
-//!   is the walk's multiple scattering, non-negative;
-//! - against the **separable** G1(ωi)G1(ωo) (`principled`'s transmission, `roughplastic`'s
-//!   coat) it counts with the part the model lacks, 1 − G1(ωo)/P: positive after a reflection,
+//! - against the **height-correlated** single-scattering model (`multiscatter=true` of
+//!   `roughdielectric`, `principled`'s transmissive part and `roughplastic`'s coat), which has
+//!   exactly that first event, such a walk counts 0: the deficit is the walk's multiple
+//!   scattering, non-negative;
+//! - against the **separable** G1(ωi)G1(ωo) (kept for comparison: the survey's bound) it
+//!   counts with the part the model lacks, 1 − G1(ωo)/P: positive after a reflection,
 //!   negative after a refraction (the separable model transmits *more* in single scattering
 //!   than the walk; no non-negative lobe can then match the walk closer than that negative
 //!   part, [`negative_deficit`]).
@@ -70,10 +71,11 @@
 //! exactly M |μo| / Z, which the models report.
 //!
 //! **`roughplastic`'s coat** reflects only (the light its compensation transmits enters the
-//! diffuse base, which has no shape of its own to give it): its lobe is the outside reflection
-//! block alone, scaled symmetrically until each row returns the averaged reflected fraction
-//! 1 − x / (1 − E_o,avg) of c_o(μi), so that the base's energy balance (its transmittance
-//! table and internal reflectance) stays exact.
+//! diffuse base, which has no shape of its own to give it): its lobe is the outside
+//! reflection block of the same normalised lobes, and [`DielectricLobe::reflected_share`] is
+//! the part of each outside row it holds (the walk's reflect/transmit split of that
+//! incidence); the coat adds the rest, c_o(μ)(1 − share(μ)), to its transmittance into the
+//! base, so the base's energy balance stays exact.
 
 use super::lobe::{
     azimuth, bin_m, decode_symmetric, encode_symmetric, mu_bin, mu_edges, phi_bin, t_edges,
@@ -104,9 +106,6 @@ pub const NR: usize = 2 * LOBE_MU;
 const DROW: usize = NR * LOBE_PHI;
 /// Cells of one node.
 const DSLICE: usize = NR * DROW;
-/// Cells of the outside-reflection block of one node (the coat).
-const CROW: usize = LOBE_MU * LOBE_PHI;
-const CSLICE: usize = LOBE_MU * CROW;
 /// Measured nodes per distribution (η × roughness node 1..).
 const MEASURED: usize = DIEL_ETAS.len() * (DIEL_ALPHAS - 1);
 
@@ -421,8 +420,9 @@ pub struct DielectricLobe {
     z: Vec<f32>,
     /// Per (node, row): the cumulative distribution of the cells ∝ M M_b A_c.
     cdf: Vec<f32>,
-    /// The coat's reflection shape per (node, μi bin, μo bin, Δφ bin) (outside).
-    coat: Vec<f32>,
+    /// Per (node, outside μ bin): the fraction of the compensation energy of that incidence
+    /// that is reflected (the coat, `roughplastic`, lets the rest into its base).
+    share: Vec<f32>,
     /// The hemispherically averaged energy the compensation carries across, x (as
     /// [`DielectricEnergy`] defines it), per node.
     pub x: Vec<f32>,
@@ -440,7 +440,7 @@ impl DielectricLobe {
             m: Vec::new(),
             z: Vec::new(),
             cdf: Vec::new(),
-            coat: Vec::new(),
+            share: Vec::new(),
             x: Vec::new(),
             measured: false,
             bins: FastBins::new(),
@@ -457,7 +457,7 @@ impl DielectricLobe {
         let mut m = vec![0.0f32; nodes * DSLICE];
         let mut z = vec![0.0f32; nodes * NR];
         let mut cdf = vec![0.0f32; nodes * DSLICE];
-        let mut coat = vec![0.0f32; nodes * CSLICE];
+        let mut share = vec![1.0f32; nodes * LOBE_MU];
         let mut xs = vec![0.0f32; nodes];
         let (gx, gw) = gauss_legendre(12);
         let mut joint = vec![0.0f64; DSLICE];
@@ -563,26 +563,12 @@ impl DielectricLobe {
                 }
                 row[DROW - 1] = 1.0;
             }
-            // the coat: the outside reflection block, each row returning the averaged
-            // reflected fraction of c_o (see the module)
-            let refl = (1.0 - xm / miss_o).clamp(0.0, 1.0);
-            let mut block = vec![0.0f64; CSLICE];
+            // the reflected part of each outside row (its total is the row's target)
             for r in 0..LOBE_MU {
-                for s in 0..LOBE_MU {
-                    block[r * CROW + s * LOBE_PHI..][..LOBE_PHI]
-                        .copy_from_slice(&joint[r * DROW + s * LOBE_PHI..][..LOBE_PHI]);
-                }
-            }
-            let ct: Vec<f64> = nu[..LOBE_MU].iter().map(|v| v * refl).collect();
-            let d = sym_scaling(&sums(&block, LOBE_MU, CROW), LOBE_MU, &ct);
-            for r in 0..LOBE_MU {
-                for s in 0..LOBE_MU {
-                    let den = nu[r] * nu[s] * A_C;
-                    for c in 0..LOBE_PHI {
-                        let k = r * CROW + s * LOBE_PHI + c;
-                        let v = block[k] * d[r] * d[s];
-                        coat[n * CSLICE + k] = if den > 1e-30 { (v / den) as f32 } else { 0.0 };
-                    }
+                let refl: f64 = joint[r * DROW..][..LOBE_MU * LOBE_PHI].iter().sum();
+                let all: f64 = joint[r * DROW..][..DROW].iter().sum();
+                if all > 0.0 {
+                    share[n * LOBE_MU + r] = (refl / all).clamp(0.0, 1.0) as f32;
                 }
             }
         }
@@ -592,7 +578,7 @@ impl DielectricLobe {
             m,
             z,
             cdf,
-            coat,
+            share,
             x: xs,
             measured: data.is_some(),
             bins: FastBins::new(),
@@ -652,14 +638,19 @@ impl DielectricLobe {
         (s * side, s * wo.z.abs() / z)
     }
 
-    /// The coat's reflection shape (outside, both directions above the surface).
+    /// Of the compensation energy for an incidence from outside at cosine `mu`, the fraction
+    /// reflected (constant over each μ bin: the ratio of the reflected part of the row to
+    /// its total; the rest is transmitted).
     #[inline]
-    pub fn coat(&self, alpha: f32, wi: Vec3, wo: Vec3) -> f32 {
+    pub fn reflected_share(&self, alpha: f32, mu: f32) -> f32 {
+        if self.nodes == 0 {
+            return 1.0;
+        }
         let (a, w) = self.node(alpha);
-        let k = self.bins.mu(wi.z) * CROW + self.bins.mu(wo.z) * LOBE_PHI + self.bins.phi(wi, wo);
-        let s = self.coat[a * CSLICE + k];
+        let b = self.bins.mu(mu.abs());
+        let s = self.share[a * LOBE_MU + b];
         if w > 0.0 {
-            s + (self.coat[(a + 1) * CSLICE + k] - s) * w
+            s + (self.share[(a + 1) * LOBE_MU + b] - s) * w
         } else {
             s
         }

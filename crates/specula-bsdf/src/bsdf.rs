@@ -136,6 +136,31 @@ pub struct BsdfSample {
     pub eta: f32,
 }
 
+impl BsdfSample {
+    /// The sample of direction `wo` from its value f (without the cosine) and density:
+    /// weight f·|cosθo|/pdf; `None` where the density is not a positive finite number (the
+    /// direction cannot be sampled).
+    #[inline]
+    pub fn from_value(
+        wo: Vec3,
+        value: Spectrum,
+        pdf: f32,
+        lobe: LobeFlags,
+        eta: f32,
+    ) -> Option<BsdfSample> {
+        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
+            return None;
+        }
+        Some(BsdfSample {
+            wo,
+            weight: value * (wo.z.abs() / pdf),
+            pdf,
+            lobe,
+            eta,
+        })
+    }
+}
+
 /// Per-primitive data of the surface that was hit, for textures that read it (Mitsuba's
 /// `mesh_attribute`): implemented by the renderer's meshes.
 pub trait SurfaceData: Send + Sync + fmt::Debug {

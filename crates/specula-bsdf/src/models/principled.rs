@@ -886,16 +886,7 @@ impl BsdfModel for Principled {
                     (LobeFlags::GLOSSY_TRANSMISSION, 1.0 / self.eta)
                 };
                 let (value, pdf) = self.eval_pdf_impl::<true>(ctx, sp, wi, wo);
-                if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
-                    return None;
-                }
-                return Some(BsdfSample {
-                    wo,
-                    weight: value * (wo.z.abs() / pdf),
-                    pdf,
-                    lobe,
-                    eta,
-                });
+                return BsdfSample::from_value(wo, value, pdf, lobe, eta);
             }
             u1 = ((u1 - st.p) / (1.0 - st.p)).clamp(0.0, 1.0 - f32::EPSILON);
         }
@@ -931,16 +922,7 @@ impl BsdfModel for Principled {
             return None;
         }
         let (value, pdf) = self.eval_pdf_impl::<true>(ctx, sp, wi, wo);
-        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
-            return None;
-        }
-        Some(BsdfSample {
-            wo,
-            weight: value * (wo.z.abs() / pdf),
-            pdf,
-            lobe,
-            eta,
-        })
+        BsdfSample::from_value(wo, value, pdf, lobe, eta)
     }
 }
 

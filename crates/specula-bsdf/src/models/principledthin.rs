@@ -298,16 +298,7 @@ impl BsdfModel for PrincipledThin {
         }
         let wo = if ci < 0.0 { -wo } else { wo };
         let (value, pdf) = self.eval_pdf_impl::<true>(sp, wi_in, wo);
-        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
-            return None;
-        }
-        Some(BsdfSample {
-            wo,
-            weight: value * (wo.z.abs() / pdf),
-            pdf,
-            lobe,
-            eta: 1.0,
-        })
+        BsdfSample::from_value(wo, value, pdf, lobe, 1.0)
     }
 }
 

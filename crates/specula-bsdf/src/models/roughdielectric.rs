@@ -245,16 +245,7 @@ impl BsdfModel for RoughDielectric {
             (s.wo, s.lobe, s.eta)
         };
         let (value, pdf) = self.eval_pdf_ms(ms, ctx, sp, wi, wo);
-        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
-            return None;
-        }
-        Some(BsdfSample {
-            wo,
-            weight: value * (wo.z.abs() / pdf),
-            pdf,
-            lobe,
-            eta,
-        })
+        BsdfSample::from_value(wo, value, pdf, lobe, eta)
     }
 }
 
@@ -302,16 +293,7 @@ impl RoughDielectric {
         let u = (x - h as f32).clamp(0.0, 1.0 - f32::EPSILON);
         let (wo, lobe, eta) = self.sample_direction(sp, wi, u, u2, etas[h])?;
         let (value, pdf) = self.eval_pdf_dispersive(ctx, sp, wi, wo, etas);
-        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
-            return None;
-        }
-        Some(BsdfSample {
-            wo,
-            weight: value * (wo.z.abs() / pdf),
-            pdf,
-            lobe,
-            eta,
-        })
+        BsdfSample::from_value(wo, value, pdf, lobe, eta)
     }
 
     /// f and the sampling density of the single-scattering model.
@@ -418,16 +400,7 @@ impl RoughDielectric {
         // refraction close to the critical angle is ill-conditioned in single precision, so
         // closed forms in the sampled m would disagree with `pdf` by up to ~1e-3.
         let (value, pdf) = self.eval_pdf_ss(ctx, sp, wi, wo);
-        if pdf.is_nan() || pdf <= 0.0 || !pdf.is_finite() {
-            return None;
-        }
-        Some(BsdfSample {
-            wo,
-            weight: value * (wo.z.abs() / pdf),
-            pdf,
-            lobe,
-            eta,
-        })
+        BsdfSample::from_value(wo, value, pdf, lobe, eta)
     }
 
     /// A direction from the single-scattering model with relative index `eta_rel`: the

@@ -3,16 +3,18 @@
 //! prints per
 //! incidence angle the directional albedo (R + T, importance transport) of the single-
 //! scattering model (`multiscatter=false`, Mitsuba's) and of the compensated one
-//! (`multiscatter=true`), and, for conductors and dielectrics, that of Heitz et al.'s random
-//! walk on the microsurface (`specula_bsdf::models::microsurface_walk`) with the lobe distance
-//! of each model to it (total variation between the binned energy distributions; the
-//! `noise` column is its value for identical lobes at this sample count).
+//! (`multiscatter=true`), and, where the material has one, that of its exact reference, Heitz
+//! et al.'s random walk on the microsurface (`specula_bsdf::models::microsurface_walk::
+//! reference_for`: conductors, dielectrics, a principled white metal or clear glass, and a
+//! roughplastic with a black base, whose reference is the walk's reflection alone) with the
+//! lobe distance of each model to it (total variation between the binned energy
+//! distributions; the `noise` column is its value for identical lobes at this sample count).
 
 use std::io::Write;
 
 use clap::Args;
 use specula_bsdf::check;
-use specula_bsdf::models::microsurface_walk::{compare, walk_for};
+use specula_bsdf::models::microsurface_walk::{compare, compare_reflection, reference_for};
 use specula_bsdf::{parse_spec, Bsdf, BsdfContext, ShadingPoint};
 
 use crate::output::CliError;
@@ -90,18 +92,34 @@ pub fn run(args: &MultiscatterArgs, out: &mut dyn Write) -> Result<(), CliError>
             )));
         }
     }
-    let walk = walk_for(&before).ok();
+    let reference = reference_for(&before);
     let n = args.samples as usize;
     writeln!(out, "material  {spec}")?;
+    let (walk, reflection_only) = match &reference {
+        Ok((w, r)) => (Some(w), *r),
+        Err(_) => (None, false),
+    };
     writeln!(
         out,
-        "albedo R+T (importance transport), {n} samples per angle{}",
-        if walk.is_some() {
-            "; lobe: distance to the random walk (total variation of the binned energy)"
-        } else {
-            "; no random walk for this plugin"
+        "albedo {} (importance transport), {n} samples per angle{}",
+        if reflection_only { "R" } else { "R+T" },
+        match &reference {
+            Ok((_, false)) =>
+                "; lobe: distance to the random walk (total variation of the binned energy)"
+                    .to_string(),
+            Ok((_, true)) => "; reference: the random walk's reflection (its transmission \
+                              absorbed by the black base); lobe: distance to it"
+                .to_string(),
+            Err(e) => format!("; no random walk: {e}"),
         }
     )?;
+    let compare = |model: &Bsdf, w, wi, seed| {
+        if reflection_only {
+            compare_reflection(model, w, wi, n, seed)
+        } else {
+            compare(model, w, wi, n, seed)
+        }
+    };
     if walk.is_some() {
         writeln!(
             out,
@@ -126,10 +144,10 @@ pub fn run(args: &MultiscatterArgs, out: &mut dyn Write) -> Result<(), CliError>
     for (k, &t) in args.angles.iter().enumerate() {
         let wi = check::suite::incidence(t);
         let seed = args.seed.wrapping_mul(1000).wrapping_add(k as u64);
-        match &walk {
+        match walk {
             Some(w) => {
-                let a = compare(&before, w, wi, n, seed);
-                let b = compare(&after, w, wi, n, seed);
+                let a = compare(&before, w, wi, seed);
+                let b = compare(&after, w, wi, seed);
                 writeln!(
                     out,
                     "{:>5}°  {:<22} {:<22} {:<22} {:>9.4} {:>9.4} {:>7.4}",
@@ -198,6 +216,39 @@ mod tests {
             .map(|c| c.parse().unwrap())
             .collect();
         assert!(cols[0] < 0.5 && (cols[1] - 1.0).abs() < 0.01, "{s}");
+        assert!(s.contains("random walk"), "{s}");
+    }
+
+    /// A roughplastic over a black base is compared with the walk's reflection; over a
+    /// coloured base it has no reference.
+    #[test]
+    fn plastic_reference() {
+        let run_for = |spec: &str| {
+            let args = MultiscatterArgs {
+                material: vec![spec.into()],
+                angles: vec![75.0],
+                samples: 20_000,
+                seed: 1,
+            };
+            let mut out = Vec::new();
+            run(&args, &mut out).unwrap();
+            String::from_utf8(out).unwrap()
+        };
+        let s = run_for("roughplastic distribution=ggx alpha=1 diffuse_reflectance=0");
+        assert!(s.contains("albedo R ") && s.contains("reflection"), "{s}");
+        let row = s.lines().last().unwrap();
+        let cols: Vec<f64> = row
+            .split_whitespace()
+            .skip(1)
+            .take(3)
+            .map(|c| c.parse().unwrap())
+            .collect();
+        // the compensated coat reflects what the walk reflects, the single-scattering one less
+        assert!(
+            cols[0] < cols[2] && (cols[1] - cols[2]).abs() < 0.1 * cols[2],
+            "{s}"
+        );
+        let s = run_for("roughplastic distribution=ggx alpha=1 diffuse_reflectance=0.5");
         assert!(s.contains("no random walk"), "{s}");
     }
 

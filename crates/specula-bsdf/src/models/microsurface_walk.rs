@@ -535,6 +535,82 @@ pub fn walk_for(b: &super::Bsdf) -> Result<MicrosurfaceWalk, String> {
     }
 }
 
+/// The exact reference of a material with energy compensation: the walk on its microsurface
+/// and whether only the walk's reflection is the reference (the light the walk transmits
+/// counts as absorbed: [`compare_reflection`]).
+///
+/// - `roughconductor`, `roughdielectric`: [`walk_for`];
+/// - `roughplastic` with a black base (`diffuse_reflectance` 0, `specular_reflectance` 1,
+///   exact Fresnel): the coat alone, the dielectric walk's reflection;
+/// - `principled` of constant parameters with `base_color` 1, no sheen and no clearcoat: a
+///   white metal (`metallic` 1) is the white conductor walk, a clear glass (`metallic` 0,
+///   `spec_trans` 1, `spec_tint` 0) the dielectric walk, both GGX at the model's (αu, αv).
+pub fn reference_for(b: &super::Bsdf) -> Result<(MicrosurfaceWalk, bool), String> {
+    use crate::bsdf::{FloatParam, SpectrumParam};
+    let is = |p: &FloatParam, v: f32| matches!(p, FloatParam::Const(c) if *c == v);
+    let spectrum_is = |p: &SpectrumParam, v: f32| {
+        p.rgb_constant()
+            .is_some_and(|c| c.0.iter().all(|&x| x == v))
+    };
+    match b {
+        super::Bsdf::RoughPlastic(p) => {
+            if !(spectrum_is(&p.diffuse_reflectance, 0.0)
+                && spectrum_is(&p.specular_reflectance, 1.0)
+                && p.fresnel == crate::fresnel::FresnelMode::Exact)
+            {
+                return Err(
+                    "the random walk is the reference of a roughplastic with a black \
+                     base only (diffuse_reflectance=0, specular_reflectance=1, exact Fresnel)"
+                        .to_string(),
+                );
+            }
+            let walk = MicrosurfaceWalk::new(
+                p.distribution,
+                p.alpha,
+                p.alpha,
+                WalkMaterial::Dielectric { eta: p.eta },
+            );
+            Ok((walk, true))
+        }
+        super::Bsdf::Principled(p) => {
+            let konst = |f: &FloatParam| match f {
+                FloatParam::Const(v) => Some(*v),
+                _ => None,
+            };
+            let (Some(r), Some(a)) = (konst(&p.roughness), konst(&p.anisotropic)) else {
+                return Err("the random walk needs a constant roughness".to_string());
+            };
+            let plain = spectrum_is(&p.base_color, 1.0) && is(&p.sheen, 0.0) && !p.has_clearcoat;
+            let (au, av) = super::principled::dist_params(a, r);
+            let distribution = crate::microfacet::MicrofacetType::Ggx;
+            if plain && is(&p.metallic, 1.0) {
+                let material = WalkMaterial::Conductor {
+                    eta: Spectrum::ZERO,
+                    k: Spectrum::ONE,
+                    reflectance: Spectrum::ONE,
+                };
+                return Ok((MicrosurfaceWalk::new(distribution, au, av, material), false));
+            }
+            if plain
+                && is(&p.metallic, 0.0)
+                && p.has_spec_trans
+                && is(&p.spec_trans, 1.0)
+                && is(&p.spec_tint, 0.0)
+            {
+                let material = WalkMaterial::Dielectric { eta: p.eta };
+                return Ok((MicrosurfaceWalk::new(distribution, au, av, material), false));
+            }
+            Err(
+                "the random walk is the reference of a principled white metal (base_color=1 \
+                 metallic=1) or clear glass (base_color=1 spec_trans=1 spec_tint=0), without \
+                 sheen or clearcoat"
+                    .to_string(),
+            )
+        }
+        other => walk_for(other).map(|w| (w, false)),
+    }
+}
+
 /// Bins of the lobe comparison: uniform in cosθ (equal solid angle) on each hemisphere, and in
 /// φ.
 pub const LOBE_MU_BINS: usize = 12;

@@ -529,14 +529,17 @@ impl CoatIntegrand {
                 let cos_theta_t = if outside { -ct } else { ct };
                 let k = c * eta_ti + cos_theta_t;
                 let (ox, oy, oz) = (mx * k - wx * eta_ti, my * k, mz * k - wz * eta_ti);
-                (ox, oy, oz, !(oz * wz >= 0.0), 1.0 - r)
+                // not (wt.z·wi.z ≥ 0), NaN included as in the scalar integrand
+                let p = oz * wz;
+                (ox, oy, oz, p < 0.0 || p.is_nan(), 1.0 - r)
             } else {
                 let c2 = 2.0 * c;
                 let (ox, oy, oz) = (c2 * mx - wx, c2 * my, c2 * mz - wz);
                 (ox, oy, oz, oz > 0.0 && wz > 0.0, r)
             };
             // smith_g1(o, m)
-            let valid = valid && !((ox * mx + oy * my + oz * mz) * oz <= 0.0);
+            let p = (ox * mx + oy * my + oz * mz) * oz;
+            let valid = valid && (p > 0.0 || p.is_nan());
             let xy = (alpha * ox).powi(2) + (alpha * oy).powi(2);
             let tan2 = xy / (oz * oz);
             let g1 = match G {

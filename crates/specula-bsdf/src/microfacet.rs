@@ -117,7 +117,13 @@ impl MicrofacetDistribution {
         if xy_alpha_2 == 0.0 {
             return 1.0;
         }
-        let tan_theta_alpha_2 = xy_alpha_2 / (v.z * v.z);
+        self.smith_g1_tan2(xy_alpha_2 / (v.z * v.z))
+    }
+
+    /// [`Self::smith_g1`] of a direction on the visible side of the microfacet, from
+    /// tan²θ·α² (> 0) of the direction (isotropic: α²(v.x² + v.y²)/v.z²).
+    #[inline]
+    pub(crate) fn smith_g1_tan2(&self, tan_theta_alpha_2: f32) -> f32 {
         match self.kind {
             MicrofacetType::Beckmann if self.rational_g1 => {
                 let a = 1.0 / tan_theta_alpha_2.sqrt();
@@ -241,20 +247,9 @@ impl MicrofacetDistribution {
         }
         let wi_s = Vec3::new(self.alpha_u * wi.x, self.alpha_v * wi.y, wi.z).normalize();
         let cos_theta = wi_s.z.clamp(1e-6, 1.0);
-        let cdf = BeckmannSlopeCdf::new(cos_theta);
-        let table = beckmann_guess_table();
-        let slope_x: Vec<f32> = xs
-            .iter()
-            .map(|&u| {
-                let u = u.clamp(1e-6, 1.0 - 1e-6);
-                let guess = table.guess(cdf.tan_theta, u);
-                cdf.invert(u, cdf.s_max - (cdf.s_max + 1.0) * (1.0 - guess))
-            })
-            .collect();
-        let slope_y: Vec<f32> = xs
-            .iter()
-            .map(|&u| erfinv_fast(2.0 * u.clamp(1e-6, 1.0 - 1e-6) - 1.0))
-            .collect();
+        let mut slope_x = vec![0.0; xs.len()];
+        beckmann_view_slopes(cos_theta, xs, &mut slope_x);
+        let slope_y: Vec<f32> = xs.iter().map(|&u| beckmann_cross_slope(u)).collect();
         let (sin_phi, cos_phi) = crate::frame::sincos_phi(wi_s);
         for (j, &x) in slope_x.iter().enumerate() {
             for (k, &y) in slope_y.iter().enumerate() {
@@ -291,6 +286,27 @@ impl MicrofacetDistribution {
         // unstretch the normal (normals transform with the inverse transpose)
         Vec3::new(self.alpha_u * m_s.x, self.alpha_v * m_s.y, m_s.z.max(0.0)).normalize()
     }
+}
+
+/// Visible normals of the unit-roughness Beckmann distribution seen at `cos_theta` (clamped
+/// to [1e-6, 1]): the slope along the view's azimuth for each sample coordinate of `us` (as
+/// [`MicrofacetDistribution::visible_normal_grid`] computes them: the safeguarded inversion of
+/// the slope CDF from the tabulated first guess), written to `out`.
+pub(crate) fn beckmann_view_slopes(cos_theta: f32, us: &[f32], out: &mut [f32]) {
+    let cdf = BeckmannSlopeCdf::new(cos_theta);
+    let table = beckmann_guess_table();
+    for (o, &u) in out.iter_mut().zip(us) {
+        let u = u.clamp(1e-6, 1.0 - 1e-6);
+        let guess = table.guess(cdf.tan_theta, u);
+        *o = cdf.invert(u, cdf.s_max - (cdf.s_max + 1.0) * (1.0 - guess));
+    }
+}
+
+/// The unit-roughness Beckmann visible slope across the view's azimuth for the sample
+/// coordinate `u` (a Gaussian: erfinv(2u − 1)); odd about u = 1/2.
+#[inline]
+pub(crate) fn beckmann_cross_slope(u: f32) -> f32 {
+    erfinv_fast(2.0 * u.clamp(1e-6, 1.0 - 1e-6) - 1.0)
 }
 
 /// The CDF of the unit-roughness Beckmann visible slope along the view's azimuth, in the erf

@@ -26,8 +26,8 @@
 //! [`DIEL_ALPHAS`] nodes (η uniform in cos θc = √(1 − 1/η²) over [1.05, 3], α uniform in
 //! √α), from μi
 //! distributed ∝ μ within each bin of each side, fixed seeds (150 000 walks per (node, incident
-//! bin) for GGX, 50 000 for Beckmann, whose walk costs ~10× more; ≈ 2 + 2.5 minutes of two
-//! cores). Every walk that scatters twice or
+//! bin) for GGX, 50 000 for Beckmann, whose walk costs ~10× more; 7.5 + 11.5 minutes on two
+//! cores shared with other work, ≈ 5 + 7.5 alone; 4.9 MB). Every walk that scatters twice or
 //! more counts with weight 1. One that leaves after its first event is the walk's
 //! (height-correlated) single scattering: the escape probability after the event is
 //! P = (1 + Λi)/(1 + Λi + Λo) after a reflection and (1 + Λi) B(1 + Λi, 1 + Λo) after a
@@ -95,7 +95,9 @@ use std::sync::OnceLock;
 /// and Beckmann, α = 0.44 and 1, coarse bins, times the row's deficit) was 0.12–0.31 for
 /// 1.05–1.25, 0.025–0.05 for 1.25–1.5, 0.012–0.044 for 1.5–2 and 0.004–0.019 for 2–3: per
 /// Δu² 1.4–3.5, 1.2–2.4, 0.8–3.0, 0.7–3.2, but per (Δ ln η)² 0.66–9 (noise 0.002–0.017).
-pub const DIEL_ETAS: [f32; 12] = [1.05, 1.0732, 1.1024, 1.1391, 1.1853, 1.2441, 1.3202, 1.4218, 1.5639, 1.7779, 2.1462, 3.0];
+pub const DIEL_ETAS: [f32; 12] = [
+    1.05, 1.0732, 1.1024, 1.1391, 1.1853, 1.2441, 1.3202, 1.4218, 1.5639, 1.7779, 2.1462, 3.0,
+];
 
 /// The coordinate u = cos θc = √(1 − 1/η²) (η ≥ 1) in which the η nodes are uniform.
 pub fn eta_coordinate(eta: f32) -> f32 {
@@ -391,7 +393,10 @@ fn interpolated_joint(j: &[f32], eta: f32, alpha: f32, out: &mut [f64]) {
     let k = (0..DIEL_ETAS.len() - 1)
         .find(|&k| le <= eta_coordinate(DIEL_ETAS[k + 1]))
         .unwrap_or(DIEL_ETAS.len() - 2);
-    let (l0, l1) = (eta_coordinate(DIEL_ETAS[k]), eta_coordinate(DIEL_ETAS[k + 1]));
+    let (l0, l1) = (
+        eta_coordinate(DIEL_ETAS[k]),
+        eta_coordinate(DIEL_ETAS[k + 1]),
+    );
     let we = ((le - l0) / (l1 - l0)).clamp(0.0, 1.0);
     let x = alpha.clamp(0.0, 1.0).sqrt() * (DIEL_ALPHAS - 1) as f32;
     let a = (x as usize).min(DIEL_ALPHAS - 2);

@@ -23,10 +23,11 @@
 //! **Measurement** ([`dielectric_joint_from_walk`], run once by the ignored test
 //! `generate_dielectric_lobe_table` of `tests/multiscatter.rs`, which writes
 //! `dielectric_lobe.bin` next to this file): white dielectric walks at [`DIEL_ETAS`] ×
-//! [`DIEL_ALPHAS`] nodes (η uniform-ish in ln η over [1.05, 3], α uniform in √α), from μi
+//! [`DIEL_ALPHAS`] nodes (η uniform in cos θc = √(1 − 1/η²) over [1.05, 3], α uniform in
+//! √α), from μi
 //! distributed ∝ μ within each bin of each side, fixed seeds (150 000 walks per (node, incident
-//! bin) for GGX, 50 000 for Beckmann, whose walk costs ~10× more; ≈ 2 + 2.5 minutes of two
-//! cores). Every walk that scatters twice or
+//! bin) for GGX, 50 000 for Beckmann, whose walk costs ~10× more; 7.5 + 11.5 minutes on two
+//! cores shared with other work, ≈ 5 + 7.5 alone; 4.9 MB). Every walk that scatters twice or
 //! more counts with weight 1. One that leaves after its first event is the walk's
 //! (height-correlated) single scattering: the escape probability after the event is
 //! P = (1 + Λi)/(1 + Λi + Λo) after a reflection and (1 + Λi) B(1 + Λi, 1 + Λo) after a
@@ -53,7 +54,7 @@
 //! [`DielectricEnergy`] reads the joint of its own model ([`DielectricEnergy::correlated`]).
 //!
 //! **Normalisation** ([`DielectricLobe::build`], per material, when its energy tables are
-//! built): the joint is interpolated linearly in ln η and √α between the nodes (each node's
+//! built): the joint is interpolated linearly in cos θc and √α between the nodes (each node's
 //! joint normalised to unit total; η < 1 reads the nodes of 1/η with the sides exchanged,
 //! η outside [1.05, 3] the nearest node), scaled to the material's total deficit and blended
 //! with 1 % of Kulla–Conty's lobes (so that it is positive everywhere), then scaled
@@ -87,8 +88,23 @@ use glam::{DVec3, Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::sync::OnceLock;
 
-/// η nodes of the measurement (η ≥ 1; η < 1 reads 1/η with the sides exchanged).
-pub const DIEL_ETAS: [f32; 5] = [1.05, 1.25, 1.5, 2.0, 3.0];
+/// η nodes of the measurement (η ≥ 1; η < 1 reads 1/η with the sides exchanged): uniform in
+/// the cosine of the critical angle, [`eta_coordinate`] u = cos θc = √(1 − 1/η²), from 1.05 to
+/// 3 (Δu = 0.058, rounded to 4 decimals), in which the joints are interpolated linearly. The
+/// lobes change with u at a roughly constant rate, not with ln η: the largest row distance
+/// between the joint measured at the ln-midpoint of two of the former nodes {1.05, 1.25, 1.5,
+/// 2, 3} and their mean (`dielectric_eta_interpolation_probe` of `tests/multiscatter.rs`, GGX
+/// and Beckmann, α = 0.44 and 1, coarse bins, times the row's deficit) was 0.12–0.31 for
+/// 1.05–1.25, 0.025–0.05 for 1.25–1.5, 0.012–0.044 for 1.5–2 and 0.004–0.019 for 2–3: per
+/// Δu² 1.4–3.5, 1.2–2.4, 0.8–3.0, 0.7–3.2, but per (Δ ln η)² 0.66–9 (noise 0.002–0.017).
+pub const DIEL_ETAS: [f32; 12] = [
+    1.05, 1.0732, 1.1024, 1.1391, 1.1853, 1.2441, 1.3202, 1.4218, 1.5639, 1.7779, 2.1462, 3.0,
+];
+
+/// The coordinate u = cos θc = √(1 − 1/η²) (η ≥ 1) in which the η nodes are uniform.
+pub fn eta_coordinate(eta: f32) -> f32 {
+    (1.0 - 1.0 / (eta * eta)).max(0.0).sqrt()
+}
 /// Roughness nodes of the measurement, uniform in √α on [0, 1] (node 0, a smooth surface, has
 /// no deficit).
 pub const DIEL_ALPHAS: usize = 7;
@@ -155,13 +171,42 @@ fn single_deficit(
 /// (Σ|J − Jᵀ| / 2Σ|J|), a check of the walk's (generalised) reciprocity and of the estimate's
 /// noise.
 pub fn dielectric_joint_from_walk(kind: MicrofacetType, walks: usize) -> [(Vec<f64>, Vec<f64>); 2] {
+    let nodes: Vec<(f32, f32)> = (0..MEASURED)
+        .map(|node| {
+            let eta = DIEL_ETAS[node / (DIEL_ALPHAS - 1)];
+            (eta, alpha_node(node % (DIEL_ALPHAS - 1) + 1, DIEL_ALPHAS))
+        })
+        .collect();
+    walk_joints(kind, &nodes, walks, 1)
+}
+
+/// The symmetrised joints (separable, height-correlated) of one (η, α) pair measured like
+/// [`dielectric_joint_from_walk`]'s nodes (`walks` walks per incident bin, seeds from `seed`):
+/// for probing the interpolation between the nodes.
+pub fn dielectric_joint_at(
+    kind: MicrofacetType,
+    eta: f32,
+    alpha: f32,
+    walks: usize,
+    seed: u64,
+) -> [Vec<f64>; 2] {
+    walk_joints(kind, &[(eta, alpha)], walks, seed).map(|(j, _)| j)
+}
+
+/// [`dielectric_joint_from_walk`] for any (η, α) nodes; the walks of row `r` of node `n` use
+/// the seed `seed + n NR + r`.
+fn walk_joints(
+    kind: MicrofacetType,
+    nodes: &[(f32, f32)],
+    walks: usize,
+    seed: u64,
+) -> [(Vec<f64>, Vec<f64>); 2] {
     use crate::models::microsurface_walk::{MicrosurfaceWalk, WalkMaterial};
-    let rows = parallel_rows(MEASURED * NR, |n| {
+    let rows = parallel_rows(nodes.len() * NR, |n| {
         let (node, r) = (n / NR, n % NR);
-        let eta = DIEL_ETAS[node / (DIEL_ALPHAS - 1)];
-        let alpha = alpha_node(node % (DIEL_ALPHAS - 1) + 1, DIEL_ALPHAS);
+        let (eta, alpha) = nodes[node];
         let walk = MicrosurfaceWalk::new(kind, alpha, alpha, WalkMaterial::Dielectric { eta });
-        let mut rng = crate::rng::Pcg32::new(n as u64 + 1, 0x6469_656c);
+        let mut rng = crate::rng::Pcg32::new(n as u64 + seed, 0x6469_656c);
         let (inside, i) = (r >= LOBE_MU, r % LOBE_MU);
         let (m0, m1) = mu_edges(i);
         let mut h = vec![0.0f64; 2 * DROW];
@@ -192,7 +237,7 @@ pub fn dielectric_joint_from_walk(kind: MicrofacetType, walks: usize) -> [(Vec<f
         h
     });
     std::array::from_fn(|k| {
-        let mut joint = vec![0.0f64; MEASURED * DSLICE];
+        let mut joint = vec![0.0f64; nodes.len() * DSLICE];
         for (n, h) in rows.iter().enumerate() {
             let (node, r) = (n / NR, n % NR);
             joint[node * DSLICE + r * DROW..][..DROW].copy_from_slice(&h[k * DROW..][..DROW]);
@@ -204,7 +249,7 @@ pub fn dielectric_joint_from_walk(kind: MicrofacetType, walks: usize) -> [(Vec<f
 /// The joint made symmetric (the mean of it and its transpose, per node), with the relative
 /// asymmetry it had per node.
 fn symmetrised(mut joint: Vec<f64>) -> (Vec<f64>, Vec<f64>) {
-    let mut asym = vec![0.0f64; MEASURED];
+    let mut asym = vec![0.0f64; joint.len() / DSLICE];
     for (node, a) in asym.iter_mut().enumerate() {
         let s = &mut joint[node * DSLICE..][..DSLICE];
         let (mut diff, mut total) = (0.0, 0.0);
@@ -256,7 +301,7 @@ pub fn negative_deficit(
     h.iter().map(|v| (-v).max(0.0)).sum::<f64>() / samples as f64
 }
 
-const MAGIC: &[u8; 8] = b"SPMSDIE2";
+const MAGIC: &[u8; 8] = b"SPMSDIE3";
 /// Values of a node's upper triangle.
 const TRI: usize = NR * (NR + 1) / 2 * LOBE_PHI;
 
@@ -343,11 +388,14 @@ pub fn dielectric_data_present() -> bool {
 fn interpolated_joint(j: &[f32], eta: f32, alpha: f32, out: &mut [f64]) {
     let swap = eta < 1.0;
     let e = if swap { 1.0 / eta } else { eta };
-    let le = e.clamp(DIEL_ETAS[0], DIEL_ETAS[DIEL_ETAS.len() - 1]).ln();
+    let le = eta_coordinate(e.clamp(DIEL_ETAS[0], DIEL_ETAS[DIEL_ETAS.len() - 1]));
     let k = (0..DIEL_ETAS.len() - 1)
-        .find(|&k| le <= DIEL_ETAS[k + 1].ln())
+        .find(|&k| le <= eta_coordinate(DIEL_ETAS[k + 1]))
         .unwrap_or(DIEL_ETAS.len() - 2);
-    let (l0, l1) = (DIEL_ETAS[k].ln(), DIEL_ETAS[k + 1].ln());
+    let (l0, l1) = (
+        eta_coordinate(DIEL_ETAS[k]),
+        eta_coordinate(DIEL_ETAS[k + 1]),
+    );
     let we = ((le - l0) / (l1 - l0)).clamp(0.0, 1.0);
     let x = alpha.clamp(0.0, 1.0).sqrt() * (DIEL_ALPHAS - 1) as f32;
     let a = (x as usize).min(DIEL_ALPHAS - 2);
@@ -728,6 +776,20 @@ mod tests {
         }
         let c = 1.0 - e.e(&q, wi.z > 0.0, wi.z) as f64;
         (r, t, c)
+    }
+
+    /// The η nodes are what their documentation says: from 1.05 to 3, uniform in cos θc (the
+    /// rounding to 4 decimals moves a node by < 0.2 % of the step).
+    #[test]
+    fn eta_nodes_are_uniform_in_the_critical_cosine() {
+        let (u0, u1) = (eta_coordinate(1.05), eta_coordinate(3.0));
+        let step = (u1 - u0) / (DIEL_ETAS.len() - 1) as f32;
+        for (k, &e) in DIEL_ETAS.iter().enumerate() {
+            let off = (eta_coordinate(e) - (u0 + k as f32 * step)).abs();
+            assert!(off < 2e-3 * step, "node {k} ({e}) off by {off}");
+        }
+        assert!((eta_coordinate(2.0) - 0.75f32.sqrt()).abs() < 1e-6);
+        assert_eq!(eta_coordinate(1.0), 0.0);
     }
 
     /// The committed data decodes; every row of the compensation lobes integrates to the energy

@@ -77,8 +77,8 @@
 //! B(1 + Λi, 1 + Λo) for transmission), which is exactly the random walk's first event; the
 //! separable G1(ωi)G1(ωo) (Mitsuba's, kept with `multiscatter=false`) transmits *more* than
 //! the walk at grazing incidence on rough surfaces, a deficit no added lobe can remove (see
-//! the limits). `principled`'s transmission and `roughplastic`'s coat keep the separable
-//! model. The tables are built for the model's own single scattering
+//! the limits). `principled`'s transmissive part and `roughplastic`'s coat do the same under
+//! `multiscatter=true`. The tables are built for the model's own single scattering
 //! ([`DielectricEnergy::get`]'s `correlated`, [`dielectric_albedo`]), as is the lobe shape
 //! ([`dielectric_lobe`] holds both measurements). From outside the interface loses
 //! 1 − E_o(μ) (E_o = R + T of the single-scattering model with η), from inside 1 − E_i(μ)
@@ -146,8 +146,10 @@
 //!   non-negative lobe can fix ([`dielectric_lobe::negative_deficit`]: GGX α = 1, η = 1.5 at
 //!   85° N = 0.175, distance 0.182; now 0.032 against noise 0.018); the height-correlated
 //!   single scattering of `roughdielectric multiscatter=true` is the walk's own first event,
-//!   so its deficit is non-negative. `principled`'s transmission and `roughplastic`'s coat
-//!   keep the separable model and its limits (their lobes read the separable measurement).
+//!   so its deficit is non-negative; the same holds for `principled`'s transmissive part and
+//!   `roughplastic`'s coat, which use it too (tests `principled_agrees_with_the_walk`,
+//!   `plastic_coat_agrees_with_the_walk`). The separable measurement is kept for the survey's
+//!   bound.
 //! - The dielectric shapes are piecewise constant over 16 θ bins per side and 16 Δφ bins,
 //!   interpolated linearly in cos θc = √(1 − 1/η²) between 12 nodes uniform in it (1.05 … 3,
 //!   [`dielectric_lobe::DIEL_ETAS`]; beyond them the nearest node, η < 1 the nodes of 1/η with
@@ -1151,8 +1153,8 @@ pub struct DielectricEnergy {
     /// The compensation lobes' shapes ([`dielectric_lobe`]).
     pub lobe: DielectricLobe,
     /// Whether the single-scattering model these tables compensate uses the height-correlated
-    /// masking-shadowing ([`MicrofacetDistribution::g2_correlated`], `roughdielectric`) rather
-    /// than the separable G1(ωi)G1(ωo) (`principled`'s transmission, `roughplastic`'s coat).
+    /// masking-shadowing ([`MicrofacetDistribution::g2_correlated`]: every compensated model)
+    /// rather than the separable G1(ωi)G1(ωo).
     pub correlated: bool,
 }
 

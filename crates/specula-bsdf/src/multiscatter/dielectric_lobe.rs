@@ -802,7 +802,7 @@ mod tests {
     fn rows_integrate_to_the_deficit() {
         assert!(dielectric_data_present(), "dielectric_lobe.bin");
         for kind in [MicrofacetType::Ggx, MicrofacetType::Beckmann] {
-            // correlated: roughdielectric's tables; separable: principled's and the coat's
+            // correlated: the compensated models' tables; separable: the survey's bound
             for (eta, alpha, textured, tol, correlated) in [
                 (1.5f32, 1.0f32, false, 1e-3, true),
                 (1.5, 1.0, false, 1e-3, false),

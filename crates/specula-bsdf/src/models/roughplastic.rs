@@ -26,7 +26,7 @@ use crate::frame::{reflect, refract};
 use crate::fresnel::FresnelMode;
 use crate::microfacet::{MicrofacetDistribution, MicrofacetType};
 use crate::multiscatter::lobe::LOBE_MU;
-use crate::multiscatter::DielectricEnergy;
+use crate::multiscatter::{DielectricEnergy, DielectricMs};
 use crate::spectrum::Spectrum;
 use crate::warp;
 use glam::{Vec2, Vec3};
@@ -51,8 +51,9 @@ pub struct RoughPlastic {
     specular_sampling_weight: f32,
     external_transmittance: [f32; TRANSMITTANCE_RES],
     internal_reflectance: f32,
-    /// The coat's energy tables when `multiscatter` is on.
-    multiscatter: Option<Arc<DielectricEnergy>>,
+    /// The coat's energy tables and their quantities at its roughness when `multiscatter` is
+    /// on.
+    multiscatter: Option<(Arc<DielectricEnergy>, DielectricMs)>,
 }
 
 /// ∫ g(m) D_wi(m) dm over the normals visible from `wi` (upper hemisphere), by Gauss–Legendre
@@ -632,11 +633,7 @@ fn compute_coat_tables(
 /// `mu`, T_ss(μ) + (1 − E(μ))(1 − share(μ)): the height-correlated single-scattering
 /// transmission and the part of the lost energy the measured lobes transmit.
 #[inline]
-fn coat_transmittance(
-    ms: &DielectricEnergy,
-    q: &crate::multiscatter::DielectricMs,
-    mu: f32,
-) -> f32 {
+fn coat_transmittance(ms: &DielectricEnergy, q: &DielectricMs, mu: f32) -> f32 {
     let c = (1.0 - ms.e(q, true, mu)).max(0.0);
     ms.t_out.e(q.alpha, mu) + c * (1.0 - ms.reflected_share(q, mu))
 }
@@ -686,10 +683,7 @@ impl RoughPlastic {
         let ms =
             DielectricEnergy::get(self.distribution, self.eta, self.fresnel, Some(alpha), true);
         let q = ms.at(alpha);
-        for (i, t) in self.external_transmittance.iter_mut().enumerate() {
-            let mu = i as f32 / (TRANSMITTANCE_RES - 1) as f32;
-            *t = coat_transmittance(&ms, &q, mu);
-        }
+        // (the 64-entry table is not read any more: `transmittance` evaluates T exactly)
         // 2∫T(μ)μ dμ of the transmittance the model evaluates (piecewise smooth: Gauss–Legendre
         // within each μ bin of the lobe's shares)
         let (gx, gw) = crate::quad::gauss_legendre_cached(8);
@@ -703,17 +697,16 @@ impl RoughPlastic {
             }
         }
         self.internal_reflectance = (1.0 - t_avg / (self.eta as f64).powi(2)) as f32;
-        self.multiscatter = Some(ms);
+        self.multiscatter = Some((ms, q));
         self
     }
 
     /// The coat's compensation lobe for (wi, wo) (reflection, outside: the measured lobes'
     /// reflection block, [`DielectricEnergy::lobe_eval`]) and its energy for `wi`.
     #[inline]
-    fn ms_lobe(&self, ms: &DielectricEnergy, wi: Vec3, wo: Vec3) -> (f32, f32) {
-        let q = ms.at(self.alpha);
-        let (fr, _) = ms.lobe_eval(&q, wi, wo);
-        let energy = ms.reflected_share(&q, wi.z) * (1.0 - ms.e(&q, true, wi.z));
+    fn ms_lobe(&self, ms: &DielectricEnergy, q: &DielectricMs, wi: Vec3, wo: Vec3) -> (f32, f32) {
+        let (fr, _) = ms.lobe_eval(q, wi, wo);
+        let energy = ms.reflected_share(q, wi.z) * (1.0 - ms.e(q, true, wi.z));
         (fr, energy)
     }
 
@@ -721,8 +714,8 @@ impl RoughPlastic {
     /// with `multiscatter`, its exact value (see [`coat_transmittance`]).
     #[inline]
     pub fn transmittance(&self, cos_theta: f32) -> f32 {
-        if let Some(ms) = &self.multiscatter {
-            return coat_transmittance(ms, &ms.at(self.alpha), cos_theta);
+        if let Some((ms, q)) = &self.multiscatter {
+            return coat_transmittance(ms, q, cos_theta);
         }
         let x = cos_theta * (TRANSMITTANCE_RES - 1) as f32;
         let i = (x.max(0.0) as usize).min(TRANSMITTANCE_RES - 2);
@@ -773,7 +766,7 @@ impl BsdfModel for RoughPlastic {
             return 0.0;
         }
         let ms_energy = match &self.multiscatter {
-            Some(ms) => self.ms_lobe(ms, wi, wo).1,
+            Some((ms, q)) => self.ms_lobe(ms, q, wi, wo).1,
             None => 0.0,
         };
         let (ps, pd) = self.lobe_probs(self.transmittance(ci), ms_energy);
@@ -807,7 +800,7 @@ impl BsdfModel for RoughPlastic {
             g1_i * distr.smith_g1(wo, h)
         };
         let (ms_value, ms_energy) = match &self.multiscatter {
-            Some(ms) => self.ms_lobe(ms, wi, wo),
+            Some((ms, q)) => self.ms_lobe(ms, q, wi, wo),
             None => (0.0, 0.0),
         };
         let spec = self.specular_reflectance.eval(sp) * (f * d * g / (4.0 * ci * co) + ms_value);
@@ -842,7 +835,7 @@ impl BsdfModel for RoughPlastic {
             return None;
         }
         let ms_energy = match &self.multiscatter {
-            Some(ms) => self.ms_lobe(ms, wi, wi).1,
+            Some((ms, q)) => self.ms_lobe(ms, q, wi, wi).1,
             None => 0.0,
         };
         let (ps, _) = self.lobe_probs(self.transmittance(wi.z), ms_energy);

@@ -175,46 +175,46 @@ pub fn run(args: &MultiscatterArgs, out: &mut dyn Write) -> Result<(), CliError>
 mod tests {
     use super::*;
 
-    #[test]
-    fn before_and_after() {
+    /// The command's output for one spec at one angle, 20 000 samples.
+    fn run_for(spec: &str, angle: f32) -> String {
         let args = MultiscatterArgs {
-            material: vec!["roughconductor distribution=ggx alpha=1 multiscatter=true".into()],
-            angles: vec![45.0],
+            material: vec![spec.into()],
+            angles: vec![angle],
             samples: 20_000,
             seed: 1,
         };
         let mut out = Vec::new();
         run(&args, &mut out).unwrap();
-        let s = String::from_utf8(out).unwrap();
-        let row = s.lines().last().unwrap();
-        let cols: Vec<f64> = row
+        String::from_utf8(out).unwrap()
+    }
+
+    /// The first `n` albedo columns of the last row.
+    fn last_row(s: &str, n: usize) -> Vec<f64> {
+        s.lines()
+            .last()
+            .unwrap()
             .split_whitespace()
             .skip(1)
-            .take(3)
+            .take(n)
             .map(|c| c.parse().unwrap())
-            .collect();
+            .collect()
+    }
+
+    #[test]
+    fn before_and_after() {
+        let s = run_for(
+            "roughconductor distribution=ggx alpha=1 multiscatter=true",
+            45.0,
+        );
+        let cols = last_row(&s, 3);
         assert!(cols[0] < 0.5 && (cols[1] - 1.0).abs() < 0.01 && (cols[2] - 1.0).abs() < 0.01);
         assert!(s.contains("random walk"), "{s}");
     }
 
     #[test]
     fn principled_before_and_after() {
-        let args = MultiscatterArgs {
-            material: vec!["principled base_color=1 metallic=1 roughness=1".into()],
-            angles: vec![0.0],
-            samples: 20_000,
-            seed: 1,
-        };
-        let mut out = Vec::new();
-        run(&args, &mut out).unwrap();
-        let s = String::from_utf8(out).unwrap();
-        let row = s.lines().last().unwrap();
-        let cols: Vec<f64> = row
-            .split_whitespace()
-            .skip(1)
-            .take(2)
-            .map(|c| c.parse().unwrap())
-            .collect();
+        let s = run_for("principled base_color=1 metallic=1 roughness=1", 0.0);
+        let cols = last_row(&s, 2);
         assert!(cols[0] < 0.5 && (cols[1] - 1.0).abs() < 0.01, "{s}");
         assert!(s.contains("random walk"), "{s}");
     }
@@ -223,32 +223,21 @@ mod tests {
     /// coloured base it has no reference.
     #[test]
     fn plastic_reference() {
-        let run_for = |spec: &str| {
-            let args = MultiscatterArgs {
-                material: vec![spec.into()],
-                angles: vec![75.0],
-                samples: 20_000,
-                seed: 1,
-            };
-            let mut out = Vec::new();
-            run(&args, &mut out).unwrap();
-            String::from_utf8(out).unwrap()
-        };
-        let s = run_for("roughplastic distribution=ggx alpha=1 diffuse_reflectance=0");
+        let s = run_for(
+            "roughplastic distribution=ggx alpha=1 diffuse_reflectance=0",
+            75.0,
+        );
         assert!(s.contains("albedo R ") && s.contains("reflection"), "{s}");
-        let row = s.lines().last().unwrap();
-        let cols: Vec<f64> = row
-            .split_whitespace()
-            .skip(1)
-            .take(3)
-            .map(|c| c.parse().unwrap())
-            .collect();
+        let cols = last_row(&s, 3);
         // the compensated coat reflects what the walk reflects, the single-scattering one less
         assert!(
             cols[0] < cols[2] && (cols[1] - cols[2]).abs() < 0.1 * cols[2],
             "{s}"
         );
-        let s = run_for("roughplastic distribution=ggx alpha=1 diffuse_reflectance=0.5");
+        let s = run_for(
+            "roughplastic distribution=ggx alpha=1 diffuse_reflectance=0.5",
+            75.0,
+        );
         assert!(s.contains("no random walk"), "{s}");
     }
 

@@ -380,7 +380,8 @@ fn dielectric_survey() {
 /// Regenerates `crates/specula-bsdf/src/multiscatter/dielectric_lobe.bin`, the measured shapes
 /// of the dielectric compensation lobes (`specula_bsdf::multiscatter::dielectric_lobe`): white
 /// random walks at fixed seeds, deterministic (`-- --ignored generate_dielectric_lobe_table
-/// --nocapture`; 12 η × 6 α nodes, 7.5 + 11.5 minutes on two shared cores, ≈ 5 + 7.5 alone). `SPECULA_DIEL_WALKS` overrides the walks per
+/// --nocapture`; 12 η × 6 α nodes, 1.4 + 3.8 minutes on two idle cores). `SPECULA_DIEL_WALKS`
+/// overrides the walks per
 /// (node, incident bin).
 #[test]
 #[ignore]
@@ -852,7 +853,7 @@ fn plastic_coat_survey() {
 #[ignore]
 fn dielectric_eta_interpolation_probe() {
     use specula_bsdf::microfacet::MicrofacetType;
-    use specula_bsdf::multiscatter::dielectric_lobe::{dielectric_joint_at, NR};
+    use specula_bsdf::multiscatter::dielectric_lobe::{bin_m, dielectric_joint_at, NR};
     use specula_bsdf::multiscatter::lobe::{LOBE_MU, LOBE_PHI};
     let etas: Vec<f32> = std::env::var("SPECULA_PROBE_ETAS")
         .ok()
@@ -862,13 +863,6 @@ fn dielectric_eta_interpolation_probe() {
         .ok()
         .map(|v| v.split(',').map(|x| x.trim().parse().unwrap()).collect())
         .unwrap_or_else(|| vec![4.0 / 9.0, 1.0]);
-    let step = std::f64::consts::FRAC_PI_2 / LOBE_MU as f64;
-    // ∫ μ dμ over μ bin b (bins uniform in θ, bin 0 grazing)
-    let bin_m = |b: usize| {
-        let lo = ((LOBE_MU - b) as f64 * step).cos().max(0.0);
-        let hi = ((LOBE_MU - 1 - b) as f64 * step).cos();
-        0.5 * (hi * hi - lo * lo)
-    };
     let (drow, coarse) = (NR * LOBE_PHI, 4usize);
     // row shape on cells merged 2 (θ) × 4 (Δφ), normalised
     let shape = |j: &[f64], r: usize, merge: bool| -> Vec<f64> {
@@ -950,8 +944,10 @@ fn dielectric_eta_interpolation_probe() {
 /// constant version in the table's cells — (out) the outgoing direction redrawn within its
 /// cell (μ ∝ μ in its θ bin, Δφ uniform in its bin, either sign), (in) the incidence drawn ∝ μ
 /// over its θ bin as the generator does, (both) — each against independent walks, with the
-/// noise of the distance (two independent walks); for the table's cells (16 θ bins per side,
-/// 16 Δφ bins) and for twice as many θ bins, or twice or four times as many Δφ bins.
+/// noise of the distance (two independent walks); for 16 uniform θ bins per side × 16 uniform
+/// Δφ bins (the table's cells until they were made to narrow towards the horizon and Δφ = π,
+/// which this probe motivated) and for twice as many θ bins, or twice or four times as many Δφ
+/// bins.
 #[test]
 #[ignore]
 fn dielectric_bin_probe() {

@@ -11,9 +11,13 @@
 //! - transmission inside → outside: c_i(μi) c_o(μo) M_oi(μo, μi, Δφ) / η²
 //! - reflection inside: c_i(μi) c_i(μo) M_ii(μi, μo, Δφ) / η²
 //!
-//! with M piecewise constant over [`LOBE_MU`] bins uniform in θ on each side and [`LOBE_PHI`]
-//! bins of the azimuth difference Δφ ∈ [0, π]. Seen as one matrix over the 2 × [`LOBE_MU`]
-//! μ bins of both sides (outside first), M is symmetric: the reflection lobes are reciprocal,
+//! with M measured over [`LOBE_MU`] bins of μ on each side that narrow towards the horizon
+//! ([`mu_edges`]) and [`LOBE_PHI`] bins of the azimuth difference Δφ ∈ [0, π] that narrow
+//! towards π ([`phi_edge`]), and interpolated
+//! piecewise linearly between the bins' centres — in x = μ² for μi and μo, in Δφ — with hat
+//! functions, constant beyond the outer centres (a piecewise-constant lobe lost the peak of
+//! grazing incidences to its bins). Seen as one matrix over the 2 × [`LOBE_MU`] μ nodes of
+//! both sides (outside first), M is symmetric: the reflection lobes are reciprocal,
 //! and the transmission outside → inside is exactly η² times the reverse one, the generalised
 //! reciprocity of refraction. Kulla and Conty's separable lobes (with their hemispherically
 //! averaged crossing energy x, see [`super`]) are the constant blocks
@@ -26,8 +30,8 @@
 //! [`DIEL_ALPHAS`] nodes (η uniform in cos θc = √(1 − 1/η²) over [1.05, 3], α uniform in
 //! √α), from μi
 //! distributed ∝ μ within each bin of each side, fixed seeds (150 000 walks per (node, incident
-//! bin) for GGX, 50 000 for Beckmann, whose walk costs ~10× more; 7.5 + 11.5 minutes on two
-//! cores shared with other work, ≈ 5 + 7.5 alone; 4.9 MB). Every walk that scatters twice or
+//! bin) for GGX, 50 000 for Beckmann, whose walk costs ~10× more; 1.4 + 3.8 minutes on two
+//! idle cores; 4.9 MB). Every walk that scatters twice or
 //! more counts with weight 1. One that leaves after its first event is the walk's
 //! (height-correlated) single scattering: the escape probability after the event is
 //! P = (1 + Λi)/(1 + Λi + Λo) after a reflection and (1 + Λi) B(1 + Λi, 1 + Λo) after a
@@ -59,17 +63,22 @@
 //! η outside [1.05, 3] the nearest node), scaled to the material's total deficit and blended
 //! with 1 % of Kulla–Conty's lobes (so that it is positive everywhere), then scaled
 //! symmetrically, J_rs ← d_r J_rs d_s (Sinkhorn iteration), until every row r holds the
-//! deficit ν_r = ∫_r c(μ) μ dμ of its bin (times η² for the inside rows) — from this
-//! material's own tables — and M = J / (ν_r ν_s A_c). Every lobe row then integrates to
-//! exactly c(μi) for every μi (within a bin c follows E continuously), R + T = 1 from both
-//! sides, for any η and, for a constant roughness, any α; between the roughness nodes of a
-//! textured roughness to second order. The R/T split of each incidence is the walk's, not a
+//! deficit ν_r = ∫ h_r(μ²) c(μ) μ dμ of its node's hat h_r (times η² for the inside rows) —
+//! from this material's own tables — and M = J / (ν_r ν_s A_c), A_c = 2 ∫ h_c(Δφ) dΔφ. (The
+//! measured cells are integrals over bins; each enters multiplied by A_c / Ā_c, Ā_c = 2 × its
+//! Δφ bin's width, so that M at a node is its bin's mean; the μ bins' weights differ from the
+//! hats' by a factor per row, which the scaling absorbs. A per-row factor computed from the
+//! bins, ν_r / ν̄_r, would be 0/0 where c vanishes.) Each node's row then integrates to 1 against c(μo), the hats of μi are a partition
+//! of unity, and so every lobe row integrates to exactly c(μi) for every μi (c follows E
+//! continuously), R + T = 1 from both sides, for any η and, for a constant roughness, any α;
+//! between the roughness nodes of a textured roughness to second order. The R/T split of each incidence is the walk's, not a
 //! constant: the hemispherically averaged crossing energy x is the measured one.
 //!
-//! **Sampling**: a roughness node with probability ∝ its weight × its row total Z, a cell
-//! (side and μ bin, Δφ bin) from the row's discrete distribution ∝ M M_b A_c (M_b = ∫ μ dμ over
-//! the bin), μ ∝ μ within the bin and Δφ uniform within the cell (either sign): the density is
-//! exactly M |μo| / Z, which the models report.
+//! **Sampling**: a (roughness node, μi node) pair with probability ∝ their weights × the
+//! node row's total Z, a (side and μ node, Δφ node) from the row's discrete distribution
+//! ∝ M m_s A_c (m_s = ∫ h_s(μ²) μ dμ), then x = μ² ∝ the μ node's hat (piecewise linear in x)
+//! and Δφ ∝ the Δφ node's hat (either sign): the density is exactly the interpolated
+//! M |μo| / Z, which the models report.
 //!
 //! **`roughplastic`'s coat** reflects only (the light its compensation transmits enters the
 //! diffuse base, which has no shape of its own to give it): its lobe is the outside
@@ -78,10 +87,7 @@
 //! incidence); the coat adds the rest, c_o(μ)(1 − share(μ)), to its transmittance into the
 //! base, so the base's energy balance stays exact.
 
-use super::lobe::{
-    azimuth, bin_m, decode_symmetric, encode_symmetric, mu_bin, mu_edges, phi_bin, t_edges,
-    FastBins, A_C, KC_BLEND, LOBE_MU, LOBE_PHI,
-};
+use super::lobe::{azimuth, decode_symmetric, encode_symmetric, KC_BLEND, LOBE_MU, LOBE_PHI};
 use super::{alpha_node, gauss_legendre, parallel_rows, DielectricEnergy};
 use crate::microfacet::MicrofacetType;
 use glam::{DVec3, Vec2, Vec3};
@@ -226,7 +232,7 @@ fn walk_joints(
                 continue;
             }
             let ro = mu_bin(s.wo.z.abs()) + if s.wo.z < 0.0 { LOBE_MU } else { 0 };
-            let cell = ro * LOBE_PHI + phi_bin(wi, s.wo);
+            let cell = ro * LOBE_PHI + dphi_bin(delta_phi(wi, s.wo));
             for (k, correlated) in [false, true].into_iter().enumerate() {
                 h[k * DROW + cell] += if s.bounces == 1 {
                     single_deficit(&walk, wi, s.wo, correlated)
@@ -304,7 +310,7 @@ pub fn negative_deficit(
     h.iter().map(|v| (-v).max(0.0)).sum::<f64>() / samples as f64
 }
 
-const MAGIC: &[u8; 8] = b"SPMSDIE3";
+const MAGIC: &[u8; 8] = b"SPMSDIE5";
 /// Values of a node's upper triangle.
 const TRI: usize = NR * (NR + 1) / 2 * LOBE_PHI;
 
@@ -457,6 +463,210 @@ fn sym_scaling(k: &[f64], n: usize, target: &[f64]) -> Vec<f64> {
     d
 }
 
+/// The exponent of the μ bins: edge k (k = 0 … [`LOBE_MU`]) lies at the elevation
+/// ψ_k = (π/2)(k / [`LOBE_MU`])^[`MU_POWER`] above the horizon (μ = sin ψ), so the bins narrow
+/// towards grazing (from 8.3° at the normal to 1.4° at the horizon), where the multiple
+/// scattering of a grazing incidence peaks close to the horizon and moves with the
+/// incidence: with 16 bins uniform in θ, a rough interface of η = 1.16 seen from inside at 85°
+/// spread its lobe over μo (0.106 of the energy at μo 0.083–0.167 where the walk has 0.142).
+pub const MU_POWER: f64 = 1.5;
+
+/// The μ range of bin `b` (bin 0 is the grazing one).
+pub fn mu_edges(b: usize) -> (f64, f64) {
+    let edge = |k: usize| {
+        if k >= LOBE_MU {
+            1.0
+        } else {
+            (std::f64::consts::FRAC_PI_2 * (k as f64 / LOBE_MU as f64).powf(MU_POWER)).sin()
+        }
+    };
+    (edge(b), edge(b + 1))
+}
+
+/// The μ bin of a cosine.
+#[inline]
+pub fn mu_bin(mu: f32) -> usize {
+    let psi = mu.clamp(0.0, 1.0).asin() * (2.0 * FRAC_1_PI);
+    ((LOBE_MU as f32 * psi.powf((1.0 / MU_POWER) as f32)) as usize).min(LOBE_MU - 1)
+}
+
+/// ∫ μ dμ over bin `b`.
+pub fn bin_m(b: usize) -> f64 {
+    let (a, c) = mu_edges(b);
+    0.5 * (c * c - a * a)
+}
+
+/// The exponent of the Δφ bins: edge k (k = 0 … [`LOBE_PHI`]) lies at π − π (1 − k /
+/// [`LOBE_PHI`])^[`PHI_POWER`], so the bins narrow towards Δφ = π, where the reflected and the
+/// transmitted multiple scattering of a grazing incidence peak (from 16.6° at Δφ = 0 to 2.8°
+/// at π). With 16 uniform bins the peak of a Beckmann α = 0.1 interface seen from inside at 85°
+/// was narrower than its bin (`dielectric_bin_probe`: the best piecewise-constant lobe 0.020
+/// from the walk; 0.004 with 32 uniform bins).
+pub const PHI_POWER: f64 = 1.5;
+
+/// Edge `k` of the Δφ bins (0 … [`LOBE_PHI`], ascending from 0 to π).
+pub fn phi_edge(k: usize) -> f64 {
+    let d = 1.0 - k as f64 / LOBE_PHI as f64;
+    std::f64::consts::PI * (1.0 - d.max(0.0).powf(PHI_POWER))
+}
+
+/// The Δφ bin of `dphi` ∈ [0, π].
+#[inline]
+pub fn dphi_bin(dphi: f32) -> usize {
+    let d = ((PI - dphi) * FRAC_1_PI).clamp(0.0, 1.0);
+    let k = (LOBE_PHI as f32 * (1.0 - d.powf((1.0 / PHI_POWER) as f32))) as usize;
+    k.min(LOBE_PHI - 1)
+}
+
+/// One axis of the interpolation of the lobes between the centres of their bins: hat
+/// functions (piecewise linear, a partition of unity) with nodes at the bins' centres,
+/// constant beyond the outer nodes. The μ axis is x = μ² on each side (x is uniform under the
+/// projected solid angle, μ dμ = dx / 2), the Δφ axis Δφ ∈ [0, π] itself.
+#[derive(Debug, Clone)]
+struct Axis {
+    /// The domain's ends.
+    lo: f32,
+    hi: f32,
+    /// Node positions, ascending.
+    nodes: [f32; 16],
+}
+
+impl Axis {
+    /// The μ axis: nodes at the centres in x = μ² of the μ bins (bin 0, the grazing one, first).
+    fn mu() -> Self {
+        const { assert!(LOBE_MU == 16) };
+        Axis {
+            lo: 0.0,
+            hi: 1.0,
+            nodes: std::array::from_fn(|b| {
+                let (lo, hi) = mu_edges(b);
+                (0.5 * (lo * lo + hi * hi)) as f32
+            }),
+        }
+    }
+
+    /// The Δφ axis: nodes at the centres of the Δφ bins ([`phi_edge`]).
+    fn phi() -> Self {
+        const { assert!(LOBE_PHI == 16) };
+        Axis {
+            lo: 0.0,
+            hi: PI,
+            nodes: std::array::from_fn(|c| (0.5 * (phi_edge(c) + phi_edge(c + 1))) as f32),
+        }
+    }
+
+    /// The two nodes around `v`, (k, t): weight 1 − t at node k, t at node k + 1.
+    #[inline]
+    fn at(&self, v: f32) -> (usize, f32) {
+        let n = &self.nodes;
+        let last = n.len() - 1;
+        if v <= n[0] {
+            return (0, 0.0);
+        }
+        if v >= n[last] {
+            return (last - 1, 1.0);
+        }
+        let k = (n.partition_point(|&e| e <= v) - 1).min(last - 1);
+        (k, ((v - n[k]) / (n[k + 1] - n[k])).clamp(0.0, 1.0))
+    }
+
+    /// The two pieces of hat `b`: (start, end, value at start, value at end).
+    #[inline]
+    fn pieces(&self, b: usize) -> [(f32, f32, f32, f32); 2] {
+        let n = &self.nodes;
+        let left = if b == 0 {
+            (self.lo, n[0], 1.0, 1.0)
+        } else {
+            (n[b - 1], n[b], 0.0, 1.0)
+        };
+        let right = if b == n.len() - 1 {
+            (n[b], self.hi, 1.0, 1.0)
+        } else {
+            (n[b], n[b + 1], 1.0, 0.0)
+        };
+        [left, right]
+    }
+
+    /// ∫ h_b(v) g(v) dv by Gauss–Legendre over each piece (nodes `gx`, weights `gw` on
+    /// [−1, 1]).
+    fn integrate(&self, b: usize, gx: &[f64], gw: &[f64], g: impl Fn(f64) -> f64) -> f64 {
+        let mut sum = 0.0;
+        for (v0, v1, h0, h1) in self.pieces(b) {
+            let (v0, v1, h0, h1) = (v0 as f64, v1 as f64, h0 as f64, h1 as f64);
+            for (p, w) in gx.iter().zip(gw) {
+                let s = 0.5 * (p + 1.0);
+                sum += (h0 + (h1 - h0) * s) * g(v0 + (v1 - v0) * s) * w * 0.5 * (v1 - v0);
+            }
+        }
+        sum
+    }
+
+    /// ∫ h_b(v) dv.
+    fn mass(&self, b: usize) -> f64 {
+        self.pieces(b)
+            .iter()
+            .map(|&(v0, v1, h0, h1)| 0.5 * (v1 - v0) as f64 * (h0 + h1) as f64)
+            .sum()
+    }
+
+    /// v distributed ∝ h_b(v) from `u`.
+    #[inline]
+    fn sample(&self, b: usize, u: f32) -> f32 {
+        let [l, r] = self.pieces(b);
+        let area = |p: (f32, f32, f32, f32)| (p.1 - p.0) * (p.2 + p.3);
+        let (al, ar) = (area(l), area(r));
+        let pl = al / (al + ar);
+        let (p, w) = if u < pl {
+            (l, u / pl)
+        } else {
+            (r, ((u - pl) / (1.0 - pl)).min(1.0))
+        };
+        let (v0, v1, h0, h1) = p;
+        let v = if h0 == h1 {
+            v0 + w * (v1 - v0)
+        } else if h1 > h0 {
+            // rising from 0: density ∝ v − v0
+            v0 + (v1 - v0) * w.sqrt()
+        } else {
+            v1 - (v1 - v0) * (1.0 - w).max(0.0).sqrt()
+        };
+        v.clamp(self.lo, self.hi)
+    }
+}
+
+/// The two axes of the interpolation.
+#[derive(Debug, Clone)]
+struct Hats {
+    mu: Axis,
+    phi: Axis,
+}
+
+impl Hats {
+    fn new() -> Self {
+        Hats {
+            mu: Axis::mu(),
+            phi: Axis::phi(),
+        }
+    }
+}
+
+/// Δφ ∈ [0, π] between the azimuths of `wi` and `wo` (0 when `wo` has none).
+#[inline]
+fn delta_phi(wi: Vec3, wo: Vec3) -> f32 {
+    let li2 = wi.x * wi.x + wi.y * wi.y;
+    let lo2 = wo.x * wo.x + wo.y * wo.y;
+    if lo2 <= 1e-20 {
+        return 0.0;
+    }
+    // an incidence without azimuth has the sampler's (1, 0) ([`azimuth`])
+    let (cross, dot) = if li2 <= 1e-20 {
+        (wo.y, wo.x)
+    } else {
+        (wi.x * wo.y - wi.y * wo.x, wi.x * wo.x + wi.y * wo.y)
+    };
+    cross.abs().atan2(dot)
+}
+
 /// The measured (or, without data, Kulla–Conty's) compensation lobes of one material (one η,
 /// one distribution), normalised against its energy tables (see the module).
 #[derive(Debug, Clone)]
@@ -465,13 +675,14 @@ pub struct DielectricLobe {
     /// Roughness of each node: one for a constant roughness, else the [`TEXTURED_ALPHAS`]
     /// nodes uniform in √α.
     nodes: usize,
-    /// M per (node, row, row, Δφ bin).
+    /// M per (roughness node, row node, row node, Δφ node).
     m: Vec<f32>,
-    /// Z = Σ M M_b A_c per (node, row).
+    /// Z = Σ M m_s A_c per (roughness node, row node), m_s = ∫ h_s(μ²) μ dμ.
     z: Vec<f32>,
-    /// Per (node, row): the cumulative distribution of the cells ∝ M M_b A_c.
+    /// Per (roughness node, row node): the cumulative distribution of the (row, Δφ) nodes
+    /// ∝ M m_s A_c.
     cdf: Vec<f32>,
-    /// Per (node, outside μ bin): the fraction of the compensation energy of that incidence
+    /// Per (roughness node, outside μ node): the fraction of that row's compensation energy
     /// that is reflected (the coat, `roughplastic`, lets the rest into its base).
     share: Vec<f32>,
     /// The hemispherically averaged energy the compensation carries across, x (as
@@ -479,7 +690,7 @@ pub struct DielectricLobe {
     pub x: Vec<f32>,
     /// Whether the shapes came from the measurement (false: Kulla–Conty's).
     pub measured: bool,
-    bins: FastBins,
+    hats: Hats,
 }
 
 impl DielectricLobe {
@@ -494,7 +705,7 @@ impl DielectricLobe {
             share: Vec::new(),
             x: Vec::new(),
             measured: false,
-            bins: FastBins::new(),
+            hats: Hats::new(),
         }
     }
 
@@ -505,6 +716,17 @@ impl DielectricLobe {
         let eta = e.eta;
         let eta2 = (eta * eta) as f64;
         let nodes = alphas.len();
+        let hats = Hats::new();
+        // ∫ h_s(μ²) μ dμ per μ node, and the azimuth measure of each Δφ node's hat, both signs
+        let mass: Vec<f64> = (0..LOBE_MU).map(|b| 0.5 * hats.mu.mass(b)).collect();
+        let a_c: Vec<f64> = (0..LOBE_PHI).map(|c| 2.0 * hats.phi.mass(c)).collect();
+        // the measured joint's cells are integrals over bins, and the lobe's value at a node
+        // is its bin's mean: in the hats' weights each cell is multiplied by A_c / Ā_c
+        // (Ā_c = 2 × the bin's width); the μ weights differ from the bins' by a factor per row,
+        // which the symmetric scaling below finds itself
+        let a_bin: Vec<f64> = (0..LOBE_PHI)
+            .map(|c| 2.0 * (phi_edge(c + 1) - phi_edge(c)))
+            .collect();
         let mut m = vec![0.0f32; nodes * DSLICE];
         let mut z = vec![0.0f32; nodes * NR];
         let mut cdf = vec![0.0f32; nodes * DSLICE];
@@ -514,19 +736,14 @@ impl DielectricLobe {
         let mut joint = vec![0.0f64; DSLICE];
         for (n, &alpha) in alphas.iter().enumerate() {
             let q = e.at_kc(alpha);
-            // ν_r = ∫_r c(μ) μ dμ per bin (in t = √μ: 2t³ c(t²) dt), both sides
+            // ν_r = ∫ h_r(μ²) c(μ) μ dμ per row node (in x = μ²: ½ ∫ h_r(x) c(√x) dx), both
+            // sides
+            let c_of = |r: usize, mu: f64| (1.0 - e.e(&q, r < LOBE_MU, mu as f32) as f64).max(0.0);
             let nu: Vec<f64> = (0..NR)
                 .map(|r| {
-                    let (t0, t1) = t_edges(r % LOBE_MU);
-                    gx.iter()
-                        .zip(&gw)
-                        .map(|(x, w)| {
-                            let t = t0 + (t1 - t0) * 0.5 * (x + 1.0);
-                            let mu = t * t;
-                            let c = 1.0 - e.e(&q, r < LOBE_MU, mu as f32) as f64;
-                            2.0 * t * mu * c.max(0.0) * w * 0.5 * (t1 - t0)
-                        })
-                        .sum()
+                    0.5 * hats
+                        .mu
+                        .integrate(r % LOBE_MU, &gx, &gw, |x| c_of(r, x.sqrt()))
                 })
                 .collect();
             let target: Vec<f64> = (0..NR)
@@ -552,6 +769,27 @@ impl DielectricLobe {
             if let Some(j) = data {
                 interpolated_joint(j, eta, alpha, &mut joint);
             }
+            for cells in joint.chunks_exact_mut(LOBE_PHI) {
+                for ((cell, a), b) in cells.iter_mut().zip(&a_c).zip(&a_bin) {
+                    *cell *= a / b;
+                }
+            }
+            // at the normal Δφ is undefined and the lobe does not depend on it: the μ node
+            // nearest the normal (constant up to μ = 1) gets the Δφ mean of its bin, whose
+            // incidences reach 8.3° and bring an azimuthal bias with them (in both places it
+            // occurs, so M stays symmetric)
+            let a_total: f64 = a_c.iter().sum();
+            for r in 0..NR {
+                for t in 0..NR {
+                    if r % LOBE_MU == LOBE_MU - 1 || t % LOBE_MU == LOBE_MU - 1 {
+                        let cells = &mut joint[r * DROW + t * LOBE_PHI..][..LOBE_PHI];
+                        let sum: f64 = cells.iter().sum();
+                        for (cell, a) in cells.iter_mut().zip(&a_c) {
+                            *cell = sum * a / a_total;
+                        }
+                    }
+                }
+            }
             let jt: f64 = joint.iter().sum();
             let g = if jt > 0.0 {
                 (1.0 - KC_BLEND) * total / jt
@@ -561,13 +799,14 @@ impl DielectricLobe {
             let wkc = if jt > 0.0 { KC_BLEND } else { 1.0 };
             for r in 0..NR {
                 for s in 0..NR {
-                    let v = wkc * kc(r, s) * nu[r] * nu[s] * A_C;
-                    for cell in &mut joint[r * DROW + s * LOBE_PHI..][..LOBE_PHI] {
-                        *cell = g * cell.max(0.0) + v;
+                    let v = wkc * kc(r, s) * nu[r] * nu[s];
+                    let cells = &mut joint[r * DROW + s * LOBE_PHI..][..LOBE_PHI];
+                    for (cell, a) in cells.iter_mut().zip(&a_c) {
+                        *cell = g * cell.max(0.0) + v * a;
                     }
                 }
             }
-            // symmetric scaling to the deficits of the bins
+            // symmetric scaling to the deficits of the row nodes
             let sums = |j: &[f64], n: usize, stride: usize| -> Vec<f64> {
                 (0..n * n)
                     .map(|rs| {
@@ -584,7 +823,8 @@ impl DielectricLobe {
                     }
                 }
             }
-            // the measured crossing energy, hemispherically averaged (from outside)
+            // the measured crossing energy, hemispherically averaged (from outside): 2 ∫ c(μ)
+            // μ T(μ) dμ with T the interpolated rows' crossing part, i.e. 2 Σ_r ν_r T_r
             let xm: f64 = 2.0
                 * (0..LOBE_MU)
                     .map(|r| {
@@ -598,12 +838,12 @@ impl DielectricLobe {
             for r in 0..NR {
                 let mut acc = 0.0f64;
                 for s in 0..NR {
-                    let den = nu[r] * nu[s] * A_C;
-                    for c in 0..LOBE_PHI {
+                    for (c, &ac) in a_c.iter().enumerate() {
+                        let den = nu[r] * nu[s] * ac;
                         let k = r * DROW + s * LOBE_PHI + c;
                         let v = if den > 1e-30 { joint[k] / den } else { 0.0 };
                         m[base + k] = v as f32;
-                        acc += v * bin_m(s % LOBE_MU) * A_C;
+                        acc += v * mass[s % LOBE_MU] * ac;
                         cdf[base + k] = acc as f32;
                     }
                 }
@@ -614,7 +854,7 @@ impl DielectricLobe {
                 }
                 row[DROW - 1] = 1.0;
             }
-            // the reflected part of each outside row (its total is the row's target)
+            // the reflected part of each outside row node (its total is the row's target)
             for r in 0..LOBE_MU {
                 let refl: f64 = joint[r * DROW..][..LOBE_MU * LOBE_PHI].iter().sum();
                 let all: f64 = joint[r * DROW..][..DROW].iter().sum();
@@ -632,7 +872,7 @@ impl DielectricLobe {
             share,
             x: xs,
             measured: data.is_some(),
-            bins: FastBins::new(),
+            hats,
         }
     }
 
@@ -658,23 +898,49 @@ impl DielectricLobe {
         }
     }
 
-    /// The row of a direction (μ bin, inside rows after the outside ones).
+    /// The (roughness node, weight) pairs at `alpha` that count (one or two).
     #[inline]
-    fn row(&self, w: Vec3) -> usize {
-        self.bins.mu(w.z.abs()) + if w.z < 0.0 { LOBE_MU } else { 0 }
+    fn roughness_nodes(&self, alpha: f32) -> [(usize, f32); 2] {
+        let (a, w) = self.node(alpha);
+        if w > 0.0 {
+            [(a, 1.0 - w), (a + 1, w)]
+        } else {
+            [(a, 1.0), (a, 0.0)]
+        }
+    }
+
+    /// The two row nodes of a direction (inside rows after the outside ones) and the weight of
+    /// the second.
+    #[inline]
+    fn rows(&self, w: Vec3) -> (usize, f32) {
+        let (k, t) = self.hats.mu.at(w.z * w.z);
+        (k + if w.z < 0.0 { LOBE_MU } else { 0 }, t)
     }
 
     /// (M × the side factor (1/η² from inside), density of [`Self::sample`] at wo over solid
     /// angle).
     #[inline]
     pub fn eval(&self, alpha: f32, wi: Vec3, wo: Vec3) -> (f32, f32) {
-        let (a, w) = self.node(alpha);
-        let r = self.row(wi);
-        let k = r * DROW + self.row(wo) * LOBE_PHI + self.bins.phi(wi, wo);
-        let (mut s, mut z) = (self.m[a * DSLICE + k], self.z[a * NR + r]);
-        if w > 0.0 {
-            s += (self.m[(a + 1) * DSLICE + k] - s) * w;
-            z += (self.z[(a + 1) * NR + r] - z) * w;
+        let (ri, ti) = self.rows(wi);
+        let (ro, to) = self.rows(wo);
+        let (pc, tp) = self.hats.phi.at(delta_phi(wi, wo));
+        let (mut s, mut z) = (0.0f32, 0.0f32);
+        for (a, wa) in self.roughness_nodes(alpha) {
+            if wa <= 0.0 {
+                continue;
+            }
+            for (r, wr) in [(ri, 1.0 - ti), (ri + 1, ti)] {
+                if wr <= 0.0 {
+                    continue;
+                }
+                let w = wa * wr;
+                z += w * self.z[a * NR + r];
+                let row = &self.m[a * DSLICE + r * DROW..][..DROW];
+                for (q, wq) in [(ro, 1.0 - to), (ro + 1, to)] {
+                    let cell = &row[q * LOBE_PHI + pc..][..2];
+                    s += w * wq * (cell[0] + (cell[1] - cell[0]) * tp);
+                }
+            }
         }
         let side = if wi.z < 0.0 { 1.0 / self.eta2 } else { 1.0 };
         if z <= 0.0 {
@@ -690,52 +956,66 @@ impl DielectricLobe {
     }
 
     /// Of the compensation energy for an incidence from outside at cosine `mu`, the fraction
-    /// reflected (constant over each μ bin: the ratio of the reflected part of the row to
-    /// its total; the rest is transmitted).
+    /// reflected (interpolated between the row nodes like the lobes, whose outside rows all
+    /// hold the same total: the ratio of the reflected part of the interpolated row to its
+    /// total; the rest is transmitted).
     #[inline]
     pub fn reflected_share(&self, alpha: f32, mu: f32) -> f32 {
         if self.nodes == 0 {
             return 1.0;
         }
-        let (a, w) = self.node(alpha);
-        let b = self.bins.mu(mu.abs());
-        let s = self.share[a * LOBE_MU + b];
-        if w > 0.0 {
-            s + (self.share[(a + 1) * LOBE_MU + b] - s) * w
-        } else {
-            s
+        let (k, t) = self.hats.mu.at(mu * mu);
+        let mut s = 0.0;
+        for (a, wa) in self.roughness_nodes(alpha) {
+            let sh = &self.share[a * LOBE_MU..][..LOBE_MU];
+            s += wa * (sh[k] + (sh[k + 1] - sh[k]) * t);
         }
+        s
     }
 
     /// A direction distributed with the density [`Self::eval`] reports, from `u` (the
-    /// roughness node) and `u2`.
+    /// roughness and row nodes) and `u2`: a (roughness node, row node) pair ∝ its weights
+    /// × Z, a (row node, Δφ node) of that row ∝ M m_s A_c, then μ ∝ h_s(μ²) μ and Δφ ∝ its
+    /// hat, either sign.
     #[inline]
     pub fn sample(&self, alpha: f32, wi: Vec3, u: f32, u2: Vec2) -> Vec3 {
-        let (a, w) = self.node(alpha);
-        let r = self.row(wi);
-        let z0 = self.z[a * NR + r] * (1.0 - w);
-        let z1 = if w > 0.0 {
-            self.z[(a + 1) * NR + r] * w
-        } else {
-            0.0
-        };
-        if z0 + z1 <= 0.0 {
+        let (ri, ti) = self.rows(wi);
+        let [(a0, wa0), (a1, wa1)] = self.roughness_nodes(alpha);
+        let pairs = [
+            (a0, ri, wa0 * (1.0 - ti)),
+            (a0, ri + 1, wa0 * ti),
+            (a1, ri, wa1 * (1.0 - ti)),
+            (a1, ri + 1, wa1 * ti),
+        ]
+        .map(|(a, r, w)| (a, r, if w > 0.0 { w * self.z[a * NR + r] } else { 0.0 }));
+        let total: f32 = pairs.iter().map(|p| p.2).sum();
+        if total <= 0.0 {
             let up = crate::warp::square_to_cosine_hemisphere(u2);
             return if wi.z < 0.0 { -up } else { up };
         }
-        let node = if u * (z0 + z1) < z0 { a } else { a + 1 };
+        let mut pick = u * total;
+        let mut chosen = pairs[0];
+        for p in pairs {
+            if p.2 <= 0.0 {
+                continue;
+            }
+            chosen = p;
+            if pick < p.2 {
+                break;
+            }
+            pick -= p.2;
+        }
+        let (node, r, _) = chosen;
         let cdf = &self.cdf[node * DSLICE + r * DROW..][..DROW];
         let ux = u2.x.min(1.0 - f32::EPSILON);
         let k = cdf.partition_point(|&c| c <= ux).min(DROW - 1);
         let lo = if k == 0 { 0.0 } else { cdf[k - 1] };
         let frac = ((ux - lo) / (cdf[k] - lo).max(1e-30)).clamp(0.0, 1.0);
         let (s, c) = (k / LOBE_PHI, k % LOBE_PHI);
-        let (m0, m1) = mu_edges(s % LOBE_MU);
-        let (m0, m1) = (m0 as f32, m1 as f32);
-        let mu = (m0 * m0 + frac * (m1 * m1 - m0 * m0)).sqrt();
+        let mu = self.hats.mu.sample(s % LOBE_MU, frac).sqrt();
         let v = 2.0 * u2.y;
         let (sign, f) = if v < 1.0 { (1.0, v) } else { (-1.0, v - 1.0) };
-        let dphi = sign * (c as f32 + f) * (PI / LOBE_PHI as f32);
+        let dphi = sign * self.hats.phi.sample(c, f);
         let (ci, si) = azimuth(wi);
         let (sd, cd) = dphi.sin_cos();
         let rr = (1.0 - mu * mu).max(0.0).sqrt();
@@ -749,29 +1029,45 @@ mod tests {
     use super::*;
     use crate::fresnel::FresnelMode;
 
-    /// ∫ f_ms(ωi, ωo) |μo| dωo over both sides as the model evaluates it, by quadrature exact
-    /// for the piecewise-constant shape (Gauss–Legendre within each μ bin, one node per Δφ
-    /// bin), split into (reflected, transmitted); and c(μi) = 1 − E(μi).
+    /// The breakpoints of the lobes' interpolation on an axis: the domain's ends and the
+    /// nodes (between two of them the lobe is linear in x = μ² and in Δφ).
+    fn breaks(axis: &Axis) -> Vec<f64> {
+        let mut v = vec![axis.lo as f64];
+        v.extend(axis.nodes.iter().map(|&n| n as f64));
+        v.push(axis.hi as f64);
+        v
+    }
+
+    /// ∫ f_ms(ωi, ωo) |μo| dωo over both sides as the model evaluates it (f |μo| dωo = f dx
+    /// dΔφ over x = μo² ∈ [0, 1] and Δφ ∈ [0, π], both signs), by Gauss–Legendre between the
+    /// interpolation's breakpoints (16 nodes in x, where c(μo) varies; 2 in Δφ, where the lobe
+    /// is linear), split into (reflected, transmitted); and c(μi) = 1 − E(μi).
     fn row_integral(e: &DielectricEnergy, alpha: f32, wi: Vec3) -> (f64, f64, f64) {
         let q = e.at(alpha);
+        let hats = Hats::new();
         let (gx, gw) = gauss_legendre(16);
+        let (px, pw) = gauss_legendre(2);
+        let (xb, pb) = (breaks(&hats.mu), breaks(&hats.phi));
         let (mut r, mut t) = (0.0f64, 0.0f64);
         for side in [1.0f32, -1.0] {
-            for b in 0..LOBE_MU {
-                let (m0, m1) = mu_edges(b);
+            for xs in xb.windows(2) {
                 for (x, w) in gx.iter().zip(&gw) {
-                    let mu = m0 + (m1 - m0) * 0.5 * (x + 1.0);
-                    let wmu = w * 0.5 * (m1 - m0);
-                    for c in 0..LOBE_PHI {
-                        let phi = (c as f32 + 0.5) * PI / LOBE_PHI as f32;
-                        let s = (1.0 - mu * mu).sqrt() as f32;
-                        let wo = Vec3::new(s * phi.cos(), s * phi.sin(), side * mu as f32);
-                        let (f, _) = e.lobe_eval(&q, wi, wo);
-                        let v = f as f64 * mu * wmu * A_C;
-                        if wi.z * wo.z > 0.0 {
-                            r += v;
-                        } else {
-                            t += v;
+                    let xo = xs[0] + (xs[1] - xs[0]) * 0.5 * (x + 1.0);
+                    let wx = w * 0.5 * (xs[1] - xs[0]);
+                    let mu = xo.sqrt();
+                    for ps in pb.windows(2) {
+                        for (y, v) in px.iter().zip(&pw) {
+                            let phi = (ps[0] + (ps[1] - ps[0]) * 0.5 * (y + 1.0)) as f32;
+                            let wp = v * 0.5 * (ps[1] - ps[0]);
+                            let s = (1.0 - mu * mu).max(0.0).sqrt() as f32;
+                            let wo = Vec3::new(s * phi.cos(), s * phi.sin(), side * mu as f32);
+                            let (f, _) = e.lobe_eval(&q, wi, wo);
+                            let val = f as f64 * wx * wp;
+                            if wi.z * wo.z > 0.0 {
+                                r += val;
+                            } else {
+                                t += val;
+                            }
                         }
                     }
                 }
@@ -891,20 +1187,44 @@ mod tests {
                 let wo = lt.sample(alpha, wi, rng.next_f32(), rng.next_vec2());
                 assert!((wo.length() - 1.0).abs() < 1e-4);
                 let row = mu_bin(wo.z.abs()) + if wo.z < 0.0 { LOBE_MU } else { 0 };
-                hist[row * LOBE_PHI + phi_bin(wi, wo)] += 1.0;
+                hist[row * LOBE_PHI + dphi_bin(delta_phi(wi, wo))] += 1.0;
             }
+            // a cell's probability ∫∫ pdf dμo dΔφ (both signs) = ∫∫ (pdf / μo) dx dΔφ, the
+            // integrand bilinear between the bin's edges and its centre (the node) on both
+            // axes: two Gauss–Legendre nodes per half
+            let (gx, gw) = gauss_legendre(2);
+            let halves = |a: f64, b: f64, m: f64| [(a, m), (m, b)];
             let mut worst = 0.0f64;
             for r in 0..NR {
                 let b = r % LOBE_MU;
                 let (m0, m1) = mu_edges(b);
-                let mu = (0.5 * (m0 + m1)) as f32;
                 for c in 0..LOBE_PHI {
-                    let phi = (c as f32 + 0.5) * PI / LOBE_PHI as f32;
-                    let s = (1.0 - mu * mu).sqrt();
-                    let z = if r < LOBE_MU { mu } else { -mu };
-                    let wo = Vec3::new(s * phi.cos(), s * phi.sin(), z);
-                    let (_, pdf) = lt.eval(alpha, wi, wo);
-                    let p = pdf as f64 / mu as f64 * bin_m(b) * A_C;
+                    let mut p = 0.0f64;
+                    for (x0, x1) in halves(m0 * m0, m1 * m1, lt.hats.mu.nodes[b] as f64) {
+                        for (f0, f1) in
+                            halves(phi_edge(c), phi_edge(c + 1), lt.hats.phi.nodes[c] as f64)
+                        {
+                            for (u, wu) in gx.iter().zip(&gw) {
+                                for (v, wv) in gx.iter().zip(&gw) {
+                                    let x = x0 + (x1 - x0) * 0.5 * (u + 1.0);
+                                    let phi = (f0 + (f1 - f0) * 0.5 * (v + 1.0)) as f32;
+                                    let mu = x.sqrt() as f32;
+                                    let s = (1.0 - mu * mu).max(0.0).sqrt();
+                                    let z = if r < LOBE_MU { mu } else { -mu };
+                                    // wi's azimuth is 0
+                                    let wo = Vec3::new(s * phi.cos(), s * phi.sin(), z);
+                                    let (_, pdf) = lt.eval(alpha, wi, wo);
+                                    p += pdf as f64 / mu as f64
+                                        * wu
+                                        * 0.5
+                                        * (x1 - x0)
+                                        * wv
+                                        * 0.5
+                                        * (f1 - f0);
+                                }
+                            }
+                        }
+                    }
                     let got = hist[r * LOBE_PHI + c] / n as f64;
                     let sigma = (p / n as f64).sqrt();
                     worst = worst.max((got - p).abs() / (sigma + 1e-9));

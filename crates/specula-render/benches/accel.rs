@@ -27,9 +27,9 @@ use specula_bsdf::frame::Frame;
 use specula_bsdf::rng::Pcg32;
 use specula_bsdf::warp::square_to_cosine_hemisphere;
 use specula_render::accel::{spawn_ray, spawn_ray_to, Bvh, Intersector, Isa};
+use specula_render::core::Ray;
 use specula_render::geometry::Geometry;
 use specula_render::mesh_io::MeshData;
-use specula_render::core::Ray;
 use specula_render::scene::Scene;
 
 const N: usize = 4096;

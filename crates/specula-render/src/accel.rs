@@ -1,12 +1,17 @@
 //! Ray intersection: one 8-wide BVH over every triangle, sphere and disk of the scene.
 //!
-//! **Structure.** The binary tree is built top-down with the surface area heuristic over 32
-//! centroid bins per axis ([`build_tree`]; O(n log n) on any input: identical centroids and
-//! subtrees deeper than [`MAX_SAH_DEPTH`] are split at the object median, and the heuristic
-//! is evaluated in double precision, so degenerate, zero-area and huge-coordinate geometry
-//! build as fast as any other) and collapsed into nodes of up to 8 children (greedily opening the child with the largest
-//! surface area). Each node stores its children's boxes as arrays of f32 (one array per
-//! plane), so one ray is tested against all 8 boxes at once; subtrees of at most 8 triangles
+//! **Structure.** A binary tree is built top-down with the surface area heuristic over
+//! centroid bins along all three axes ([`build_tree`]): 32 bins per axis for ranges of more
+//! than 1024 primitives, 16 down to 33 and 8 below ([`bins_for`]), the two halves of ranges
+//! of at least 16 k primitives built in parallel (the same tree for any number of threads).
+//! A range of at most 8 triangles is not split: it is one leaf. The build is O(n log n) on
+//! any input: identical centroids and subtrees deeper than [`MAX_SAH_DEPTH`] are split at
+//! the object median, and the heuristic is evaluated in double precision, so degenerate,
+//! zero-area and huge-coordinate geometry build as fast as any other. The binary tree is
+//! then collapsed into nodes of up to 8 children (greedily opening the child with the
+//! largest surface area); [`Bvh::sah_cost`] gives the result's SAH cost.
+//!
+//! Each node stores its children's boxes as arrays of f32 (one array per plane), so one ray is tested against all 8 boxes at once; subtrees of at most 8 triangles
 //! become leaves of one or two `TriPacket`s (4 triangles' vertices, one array per
 //! coordinate), tested 4 at a time, or both packets as 8 lanes with AVX2 (leaves of 8 rather
 //! than 4 triangles: one node level less, ~6 % faster on meshes.xml). Nodes and packets are
@@ -2341,9 +2346,8 @@ mod tests {
                 median(r)
             } else {
                 let nb = bins_for(r.len());
-                let bin_of = |c: f64, a: usize| {
-                    (((c - clo[a]) * (nb as f64 / ext[a])) as usize).min(nb - 1)
-                };
+                let bin_of =
+                    |c: f64, a: usize| (((c - clo[a]) * (nb as f64 / ext[a])) as usize).min(nb - 1);
                 let mut bins = [[(Vec3::INFINITY, Vec3::NEG_INFINITY, 0u32); BINS]; 3];
                 let live: [bool; 3] = std::array::from_fn(|a| ext[a] > 0.0);
                 for &i in r.iter() {

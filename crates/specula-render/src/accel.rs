@@ -366,6 +366,7 @@ impl Bvh {
                 lo,
                 hi,
                 matches!(p.shape, PrimShape::Triangle(_)),
+                kept.len() as u32,
             ));
             kept.push(p);
         };
@@ -448,7 +449,7 @@ impl Bvh {
         if kept.is_empty() {
             return out;
         }
-        let (tree, order) = build_tree(&pb);
+        let (tree, order) = build_tree(&mut pb);
         drop(pb);
         out.collapse(&tree, &order, &kept);
         out
@@ -659,7 +660,9 @@ fn half_area_f64(lo: Vec3, hi: Vec3) -> f64 {
 }
 
 /// What the build reads of a primitive, in one cache line: its (padded) box, the box's
-/// centroid (double precision, as the bins are placed) and whether it is a triangle.
+/// centroid (double precision, as the bins are placed), whether it is a triangle, and its
+/// index. The build partitions these records themselves (not indices to them), so each
+/// node's primitives lie consecutively in memory.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 struct PrimBox {
@@ -667,6 +670,7 @@ struct PrimBox {
     hi: Vec3A,
     c: DVec3,
     tri: bool,
+    index: u32,
 }
 
 /// The smaller of two centroids, per axis (no NaN is ever built: `f64::min` without its NaN
@@ -687,12 +691,13 @@ fn dmax(a: DVec3, b: DVec3) -> DVec3 {
 impl PrimBox {
     /// The record of a primitive with the (padded, finite) box `lo..hi`.
     #[inline]
-    fn new(lo: Vec3, hi: Vec3, tri: bool) -> PrimBox {
+    fn new(lo: Vec3, hi: Vec3, tri: bool, index: u32) -> PrimBox {
         PrimBox {
             lo: lo.into(),
             hi: hi.into(),
             c: (lo.as_dvec3() + hi.as_dvec3()) * 0.5,
             tri,
+            index,
         }
     }
 }
@@ -700,12 +705,15 @@ impl PrimBox {
 /// [`build_tree`] over `boxes` (finite, one per primitive of `prims`).
 #[cfg(test)]
 fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> (Vec<BNode>, Vec<u32>) {
-    let pb: Vec<PrimBox> = boxes
+    let mut pb: Vec<PrimBox> = boxes
         .iter()
         .zip(prims)
-        .map(|(&(lo, hi), p)| PrimBox::new(lo, hi, matches!(p.shape, PrimShape::Triangle(_))))
+        .enumerate()
+        .map(|(i, (&(lo, hi), p))| {
+            PrimBox::new(lo, hi, matches!(p.shape, PrimShape::Triangle(_)), i as u32)
+        })
         .collect();
-    build_tree(&pb)
+    build_tree(&mut pb)
 }
 
 /// The binary build tree over the primitives' build records (at least one), root first,
@@ -721,14 +729,13 @@ fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> (Vec<BNode>, Vec<u32>
 /// count on each side). Primitives whose centroids coincide, and subtrees deeper than
 /// [`MAX_SAH_DEPTH`], are split at the object median; every split is a partition of an index
 /// range, so the whole build is O(n log n) with an explicit stack (no recursion).
-fn build_tree(pb: &[PrimBox]) -> (Vec<BNode>, Vec<u32>) {
+fn build_tree(pb: &mut [PrimBox]) -> (Vec<BNode>, Vec<u32>) {
     let n = pb.len();
-    let mut idx: Vec<u32> = (0..n as u32).collect();
     // a binary tree with one primitive per leaf has 2n − 1 nodes, and each subtree of m
     // primitives at most 2m − 1 (root first): every part of the build writes its own slice
     // of one array
     let mut tree = vec![BNode::PLACEHOLDER; 2 * n - 1];
-    build_range(&mut idx, 0, None, pb, 0, &mut tree, 0);
+    build_range(pb, 0, None, 0, &mut tree, 0);
     // children come after their parents: sum up in reverse (placeholders look like leaves
     // and are skipped; leaves have their counts)
     for i in (0..tree.len()).rev() {
@@ -738,7 +745,7 @@ fn build_tree(pb: &[PrimBox]) -> (Vec<BNode>, Vec<u32>) {
             tree[i].tris_only = tree[a].tris_only && tree[b].tris_only;
         }
     }
-    (tree, idx)
+    (tree, pb.iter().map(|p| p.index).collect())
 }
 
 /// Ranges at least this large build their two halves in parallel.
@@ -771,10 +778,10 @@ impl RangeBounds {
         self.chi = dmax(self.chi, p.c);
     }
 
-    fn of(range: &[u32], pb: &[PrimBox]) -> RangeBounds {
+    fn of(range: &[PrimBox]) -> RangeBounds {
         let mut b = RangeBounds::EMPTY;
-        for &i in range {
-            b.add(&pb[i as usize]);
+        for p in range {
+            b.add(p);
         }
         b
     }
@@ -788,14 +795,13 @@ type Split = (usize, Option<[RangeBounds; 2]>);
 /// order; `bounds` its bounds when known) and its split; a single primitive, or at most
 /// [`LEAF_TRIS`] triangles, give a leaf and no split.
 fn node_and_split(
-    range: &mut [u32],
+    range: &mut [PrimBox],
     first: u32,
     bounds: Option<RangeBounds>,
-    pb: &[PrimBox],
     depth: u32,
 ) -> (BNode, Option<Split>) {
     if range.len() == 1 {
-        let b = &pb[range[0] as usize];
+        let b = &range[0];
         let leaf = BNode {
             lo: b.lo.into(),
             hi: b.hi.into(),
@@ -806,15 +812,15 @@ fn node_and_split(
         return (leaf, None);
     }
     // A range of at most LEAF_TRIS triangles becomes one leaf (see `collapse`) as it stands.
-    let small = range.len() <= LEAF_TRIS as usize && range.iter().all(|&i| pb[i as usize].tri);
+    let small = range.len() <= LEAF_TRIS as usize && range.iter().all(|p| p.tri);
     if small {
         let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
         match bounds {
             Some(b) => (lo, hi) = (b.lo, b.hi),
             None => {
-                for &i in range.iter() {
-                    lo = lo.min(pb[i as usize].lo);
-                    hi = hi.max(pb[i as usize].hi);
+                for p in range.iter() {
+                    lo = lo.min(p.lo);
+                    hi = hi.max(p.hi);
                 }
             }
         }
@@ -827,8 +833,8 @@ fn node_and_split(
         };
         return (leaf, None);
     }
-    let RangeBounds { lo, hi, clo, chi } = bounds.unwrap_or_else(|| RangeBounds::of(range, pb));
-    let split = split(range, pb, clo, chi, depth);
+    let RangeBounds { lo, hi, clo, chi } = bounds.unwrap_or_else(|| RangeBounds::of(range));
+    let split = split(range, clo, chi, depth);
     let node = BNode {
         lo: lo.into(),
         hi: hi.into(),
@@ -846,17 +852,16 @@ fn node_and_split(
 /// `out[0]` in the whole tree, which child indices refer to). Large ranges build their halves
 /// in parallel; the tree is the same whatever the number of threads.
 fn build_range(
-    range: &mut [u32],
+    range: &mut [PrimBox],
     first: u32,
     bounds: Option<RangeBounds>,
-    pb: &[PrimBox],
     depth: u32,
     out: &mut [BNode],
     base: u32,
 ) {
     debug_assert_eq!(out.len(), 2 * range.len() - 1);
     if range.len() >= PARALLEL_BUILD {
-        let (mut node, split) = node_and_split(range, first, bounds, pb, depth);
+        let (mut node, split) = node_and_split(range, first, bounds, depth);
         let (mid, parts) = split.expect("a large range splits");
         let [ba, bb] = parts.map_or([None, None], |[a, b]| [Some(a), Some(b)]);
         let (a, b) = range.split_at_mut(mid);
@@ -866,8 +871,8 @@ fn build_range(
         node.kids = [base + 1, second];
         root[0] = node;
         rayon::join(
-            || build_range(a, first, ba, pb, depth + 1, oa, base + 1),
-            || build_range(b, first + mid as u32, bb, pb, depth + 1, ob, second),
+            || build_range(a, first, ba, depth + 1, oa, base + 1),
+            || build_range(b, first + mid as u32, bb, depth + 1, ob, second),
         );
         return;
     }
@@ -880,7 +885,7 @@ fn build_range(
         if parent != NO_CHILD {
             out[parent as usize].kids[which] = base + index as u32;
         }
-        let (node, split) = node_and_split(&mut range[s..e], first + s as u32, bounds, pb, depth);
+        let (node, split) = node_and_split(&mut range[s..e], first + s as u32, bounds, depth);
         out[index] = node;
         next += 1;
         if let Some((mid, parts)) = split {
@@ -910,7 +915,7 @@ impl Bin {
 
 /// Reorders `range` (at least 2 primitives, centroid bounds `clo..chi`) into two non-empty
 /// parts: the length of the first and, for a SAH split, the bounds of both.
-fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) -> Split {
+fn split(range: &mut [PrimBox], clo: DVec3, chi: DVec3, depth: u32) -> Split {
     let ext = chi - clo;
     let axis = if ext.x >= ext.y && ext.x >= ext.z {
         0
@@ -919,12 +924,10 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
     } else {
         2
     };
-    let median = |range: &mut [u32]| {
+    let median = |range: &mut [PrimBox]| {
         let m = range.len() / 2;
         if ext[axis] > 0.0 {
-            range.select_nth_unstable_by(m, |&a, &b| {
-                pb[a as usize].c[axis].total_cmp(&pb[b as usize].c[axis])
-            });
+            range.select_nth_unstable_by(m, |a, b| a.c[axis].total_cmp(&b.c[axis]));
         }
         (m, None)
     };
@@ -969,8 +972,7 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
             let (clo_xy, scale_xy) =
                 unsafe { (_mm_set_pd(clo.y, clo.x), _mm_set_pd(scale[1], scale[0])) };
             let clamp = |k: i32| k.clamp(0, nb as i32 - 1) as usize;
-            for &i in range.iter() {
-                let p = &pb[i as usize];
+            for p in range.iter() {
                 let (kx, ky) = unsafe {
                     let xy = _mm_mul_pd(_mm_sub_pd(_mm_set_pd(p.c.y, p.c.x), clo_xy), scale_xy);
                     let k = _mm_cvttpd_epi32(xy);
@@ -990,15 +992,13 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
-        for &i in range.iter() {
-            let p = &pb[i as usize];
+        for p in range.iter() {
             add(0, p);
             add(1, p);
             add(2, p);
         }
     } else {
-        for &i in range.iter() {
-            let p = &pb[i as usize];
+        for p in range.iter() {
             for (a, &on) in live.iter().enumerate() {
                 if on {
                     add(a, p);
@@ -1052,8 +1052,7 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
     let mut m = 0;
     let mut parts = [RangeBounds::EMPTY; 2];
     for j in 0..range.len() {
-        let i = range[j] as usize;
-        let p = &pb[i];
+        let p = &range[j];
         if bin_of(p.c[a], a) < k {
             parts[0].add(p);
             range.swap(m, j);

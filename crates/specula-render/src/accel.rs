@@ -492,9 +492,8 @@ impl Bvh {
                     continue; // unused slot
                 }
                 let c = n.child[s];
-                let weight = if c & LEAF == 0 {
-                    1.0
-                } else if c & ANALYTIC != 0 {
+                // an inner node or an analytic shape: 1; a leaf of triangles: its packets
+                let weight = if c & LEAF == 0 || c & ANALYTIC != 0 {
                     1.0
                 } else {
                     ((c & !LEAF) >> COUNT_SHIFT) as f64 + 1.0

@@ -1,4 +1,5 @@
-//! Ray traversal speed on the geometry of `../shared/scenes/meshes.xml` (76 k triangles).
+//! Ray traversal speed on the geometry of `../shared/scenes/meshes.xml` (76 k triangles), and
+//! the same groups on `cbox.xml` prefixed `cbox/`.
 //!
 //! Run with `cargo bench -p specula-render --bench accel`. Four fixed ray sets of 4096 rays
 //! each, generated once from the scene itself (no random numbers are drawn while measuring):
@@ -160,11 +161,17 @@ fn bench_build(c: &mut Criterion) {
 }
 
 fn bench(c: &mut Criterion) {
-    let path = specula_testdata::root().join("scenes/meshes.xml");
+    bench_scene(c, "meshes", "");
+    bench_scene(c, "cbox", "cbox/");
+}
+
+/// The traversal groups on `../shared/scenes/{name}.xml`, their names prefixed by `tag`.
+fn bench_scene(c: &mut Criterion, name: &str, tag: &str) {
+    let path = specula_testdata::root().join(format!("scenes/{name}.xml"));
     let scene = match Scene::load(&path, &[]) {
         Ok(s) => s,
         Err(e) => {
-            eprintln!("skipping the accel benchmark: {e}");
+            eprintln!("skipping the accel benchmark on {name}: {e}");
             return;
         }
     };
@@ -177,9 +184,9 @@ fn bench(c: &mut Criterion) {
         let mut accel = scene.accel.clone();
         accel.set_isa(isa);
         let prefix = if isa == best {
-            String::new()
+            tag.to_string()
         } else {
-            format!("{isa:?}/").to_lowercase()
+            format!("{tag}{isa:?}/").to_lowercase()
         };
         let mut g = c.benchmark_group(format!("{prefix}closest"));
         g.throughput(Throughput::Elements(N as u64));

@@ -1,4 +1,5 @@
-//! Ray traversal speed on the geometry of `../shared/scenes/meshes.xml` (76 k triangles).
+//! Ray traversal speed on the geometry of `../shared/scenes/meshes.xml` (76 k triangles), and
+//! the same groups on `cbox.xml` prefixed `cbox/`.
 //!
 //! Run with `cargo bench -p specula-render --bench accel`. Four fixed ray sets of 4096 rays
 //! each, generated once from the scene itself (no random numbers are drawn while measuring):
@@ -14,14 +15,22 @@
 //! box/triangle test implementation picked for this CPU (AVX2 where available); the other
 //! implementations follow as `sse2/…` and `scalar/…` (`-- '^(closest|occluded)'` runs only
 //! the plain ones).
+//!
+//! The `build` group times [`Bvh::build`] (binary SAH tree, collapse, packets; with the
+//! default thread pool) on the geometry of `meshes.xml` (76 k triangles), of the matpreview
+//! scene `bsdf_roughplastic_nopreserve.xml` of `../shared/mitsuba-data` (~70 k triangles) and
+//! of a unit UV sphere of 500 rings (998 000 triangles, the tessellation of
+//! `scripts/gen_sphere_mesh.py`, generated here): `-- '^build'` runs only it.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
 use specula_bsdf::frame::Frame;
 use specula_bsdf::rng::Pcg32;
 use specula_bsdf::warp::square_to_cosine_hemisphere;
-use specula_render::accel::{spawn_ray, spawn_ray_to, Intersector, Isa};
+use specula_render::accel::{spawn_ray, spawn_ray_to, Bvh, Intersector, Isa};
 use specula_render::core::Ray;
+use specula_render::geometry::Geometry;
+use specula_render::mesh_io::MeshData;
 use specula_render::scene::Scene;
 
 const N: usize = 4096;
@@ -83,12 +92,86 @@ fn rays(scene: &Scene) -> Rays {
     r
 }
 
+/// A unit UV sphere: `rings` rings of 2·rings quads, triangle fans at the poles
+/// (4·rings·(rings − 1) triangles), as `scripts/gen_sphere_mesh.py` tessellates it.
+fn uv_sphere(rings: u32) -> Geometry {
+    let cols = 2 * rings;
+    let mut data = MeshData::default();
+    data.positions.push(Vec3::Y);
+    for i in 1..rings {
+        let theta = std::f32::consts::PI * i as f32 / rings as f32;
+        for j in 0..cols {
+            let phi = std::f32::consts::TAU * j as f32 / cols as f32;
+            data.positions.push(Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            ));
+        }
+    }
+    data.positions.push(-Vec3::Y);
+    let south = data.positions.len() as u32 - 1;
+    let at = |ring: u32, j: u32| 1 + (ring - 1) * cols + j % cols;
+    for j in 0..cols {
+        data.indices.push([0, at(1, j + 1), at(1, j)]);
+        data.indices
+            .push([south, at(rings - 1, j), at(rings - 1, j + 1)]);
+    }
+    for r in 1..rings - 1 {
+        for j in 0..cols {
+            let (a, b, c, d) = (at(r, j), at(r, j + 1), at(r + 1, j), at(r + 1, j + 1));
+            data.indices.push([a, b, d]);
+            data.indices.push([a, d, c]);
+        }
+    }
+    Geometry::mesh(data, glam::Mat4::IDENTITY, false, false).expect("a valid sphere")
+}
+
+fn bench_build(c: &mut Criterion) {
+    let root = specula_testdata::root();
+    let mut inputs: Vec<(&str, Vec<Geometry>)> = Vec::new();
+    for (name, path) in [
+        ("meshes", root.join("scenes/meshes.xml")),
+        (
+            "roughplastic",
+            root.join("mitsuba-data/docs/scenes/bsdf_roughplastic_nopreserve.xml"),
+        ),
+    ] {
+        match Scene::load(&path, &[]) {
+            Ok(s) => inputs.push((name, s.geometry)),
+            Err(e) => eprintln!("skipping build/{name}: {e}"),
+        }
+    }
+    inputs.push(("sphere1m", vec![uv_sphere(500)]));
+    let mut g = c.benchmark_group("build");
+    for (name, geoms) in &inputs {
+        let bvh = Bvh::build(geoms);
+        eprintln!(
+            "build/{name}: {} primitives, SAH cost {:.4}",
+            bvh.primitive_count(),
+            bvh.sah_cost()
+        );
+        g.throughput(Throughput::Elements(bvh.primitive_count() as u64));
+        if *name == "sphere1m" {
+            g.sample_size(10);
+        }
+        g.bench_function(*name, |b| b.iter(|| Bvh::build(black_box(geoms))));
+    }
+    g.finish();
+}
+
 fn bench(c: &mut Criterion) {
-    let path = specula_testdata::root().join("scenes/meshes.xml");
+    bench_scene(c, "meshes", "");
+    bench_scene(c, "cbox", "cbox/");
+}
+
+/// The traversal groups on `../shared/scenes/{name}.xml`, their names prefixed by `tag`.
+fn bench_scene(c: &mut Criterion, name: &str, tag: &str) {
+    let path = specula_testdata::root().join(format!("scenes/{name}.xml"));
     let scene = match Scene::load(&path, &[]) {
         Ok(s) => s,
         Err(e) => {
-            eprintln!("skipping the accel benchmark: {e}");
+            eprintln!("skipping the accel benchmark on {name}: {e}");
             return;
         }
     };
@@ -101,9 +184,9 @@ fn bench(c: &mut Criterion) {
         let mut accel = scene.accel.clone();
         accel.set_isa(isa);
         let prefix = if isa == best {
-            String::new()
+            tag.to_string()
         } else {
-            format!("{isa:?}/").to_lowercase()
+            format!("{tag}{isa:?}/").to_lowercase()
         };
         let mut g = c.benchmark_group(format!("{prefix}closest"));
         g.throughput(Throughput::Elements(N as u64));
@@ -163,6 +246,6 @@ fn bench(c: &mut Criterion) {
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20).warm_up_time(std::time::Duration::from_millis(500)).measurement_time(std::time::Duration::from_secs(2));
-    targets = bench
+    targets = bench, bench_build
 }
 criterion_main!(benches);

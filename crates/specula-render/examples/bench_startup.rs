@@ -65,10 +65,11 @@ fn main() {
         times.sort_by(f64::total_cmp);
         if !times.is_empty() {
             println!(
-                "  BVH over {} primitives: least {:.4} s, median {:.4} s",
+                "  BVH over {} primitives: least {:.4} s, median {:.4} s, SAH cost {:.4}",
                 scene.accel.primitive_count(),
                 times[0],
-                times[times.len() / 2]
+                times[times.len() / 2],
+                scene.accel.sah_cost()
             );
         }
     }

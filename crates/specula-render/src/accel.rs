@@ -1,12 +1,17 @@
 //! Ray intersection: one 8-wide BVH over every triangle, sphere and disk of the scene.
 //!
-//! **Structure.** The binary tree is built top-down with the surface area heuristic over 32
-//! centroid bins per axis ([`build_tree`]; O(n log n) on any input: identical centroids and
-//! subtrees deeper than [`MAX_SAH_DEPTH`] are split at the object median, and the heuristic
-//! is evaluated in double precision, so degenerate, zero-area and huge-coordinate geometry
-//! build as fast as any other) and collapsed into nodes of up to 8 children (greedily opening the child with the largest
-//! surface area). Each node stores its children's boxes as arrays of f32 (one array per
-//! plane), so one ray is tested against all 8 boxes at once; subtrees of at most 8 triangles
+//! **Structure.** A binary tree is built top-down with the surface area heuristic over
+//! centroid bins along all three axes ([`build_tree`]): 32 bins per axis for ranges of more
+//! than 1024 primitives, 16 down to 33 and 8 below ([`bins_for`]), the two halves of ranges
+//! of at least 16 k primitives built in parallel (the same tree for any number of threads).
+//! A range of at most 8 triangles is not split: it is one leaf. The build is O(n log n) on
+//! any input: identical centroids and subtrees deeper than [`MAX_SAH_DEPTH`] are split at
+//! the object median, and the heuristic is evaluated in double precision, so degenerate,
+//! zero-area and huge-coordinate geometry build as fast as any other. The binary tree is
+//! then collapsed into nodes of up to 8 children (greedily opening the child with the
+//! largest surface area); [`Bvh::sah_cost`] gives the result's SAH cost.
+//!
+//! Each node stores its children's boxes as arrays of f32 (one array per plane), so one ray is tested against all 8 boxes at once; subtrees of at most 8 triangles
 //! become leaves of one or two `TriPacket`s (4 triangles' vertices, one array per
 //! coordinate), tested 4 at a time, or both packets as 8 lanes with AVX2 (leaves of 8 rather
 //! than 4 triangles: one node level less, ~6 % faster on meshes.xml). Nodes and packets are
@@ -293,12 +298,14 @@ const MAX_INV_DIR: f32 = 1e18;
 /// slab test never culls a box the ray touches (Ize, *Robust BVH Ray Traversal*, JCGT 2013).
 const EXIT_SCALE: f32 = 1.0 + 4.0 * f32::EPSILON;
 
-/// A node of the binary build tree (one primitive per leaf).
+/// A node of the binary build tree. A leaf holds one primitive, or up to [`LEAF_TRIS`]
+/// triangles: the `count` entries of the build's primitive order from `kids[0]` on.
 #[derive(Clone, Copy)]
 struct BNode {
     lo: Vec3,
     hi: Vec3,
-    /// Children (inner nodes), or `[prim, NO_CHILD]` for a leaf.
+    /// Children (inner nodes), or `[first, NO_CHILD]` for a leaf (`first`: its first entry in
+    /// the primitive order that [`build_tree`] returns).
     kids: [u32; 2],
     /// Primitives in the subtree.
     count: u32,
@@ -359,6 +366,7 @@ impl Bvh {
                 lo,
                 hi,
                 matches!(p.shape, PrimShape::Triangle(_)),
+                kept.len() as u32,
             ));
             kept.push(p);
         };
@@ -441,15 +449,59 @@ impl Bvh {
         if kept.is_empty() {
             return out;
         }
-        let tree = build_tree(&pb);
+        let (tree, order) = build_tree(&mut pb);
         drop(pb);
-        out.collapse(&tree, &kept);
+        out.collapse(&tree, &order, &kept);
         out
     }
 
     /// Number of primitives (triangles, spheres, disks) in the BVH.
     pub fn primitive_count(&self) -> usize {
         self.primitives
+    }
+
+    /// The tree's expected traversal cost under the surface area heuristic, relative to its
+    /// root box: Σ over 8-wide nodes of area(node)/area(root) · 1 plus Σ over leaves of
+    /// area(leaf)/area(root) · (its packets, or 1 for an analytic shape). A measure of tree
+    /// quality for comparing builders (lower is better); 0 for an empty tree.
+    pub fn sah_cost(&self) -> f64 {
+        let Some(root) = self.nodes.first() else {
+            return 0.0;
+        };
+        let area = |n: &Node, s: usize| -> f64 {
+            let e = |a: usize| (n.b[2 * a + 1][s] as f64 - n.b[2 * a][s] as f64).max(0.0);
+            let (x, y, z) = (e(0), e(1), e(2));
+            x * y + y * z + z * x
+        };
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for s in 0..WIDTH {
+            for a in 0..3 {
+                lo[a] = lo[a].min(root.b[2 * a][s]);
+                hi[a] = hi[a].max(root.b[2 * a + 1][s]);
+            }
+        }
+        let root_area = half_area_f64(lo, hi);
+        if root_area <= 0.0 {
+            return 0.0;
+        }
+        // the root is always visited; every other node and leaf when its box in its parent is
+        let mut cost = 1.0;
+        for n in &self.nodes {
+            for s in 0..WIDTH {
+                if n.b[0][s] > n.b[1][s] {
+                    continue; // unused slot
+                }
+                let c = n.child[s];
+                // an inner node or an analytic shape: 1; a leaf of triangles: its packets
+                let weight = if c & LEAF == 0 || c & ANALYTIC != 0 {
+                    1.0
+                } else {
+                    ((c & !LEAF) >> COUNT_SHIFT) as f64 + 1.0
+                };
+                cost += area(n, s) / root_area * weight;
+            }
+        }
+        cost
     }
 
     /// The implementation of the box and triangle tests in use.
@@ -465,7 +517,7 @@ impl Bvh {
     }
 
     /// Turns the binary tree into 8-wide nodes and packets, depth-first.
-    fn collapse(&mut self, tree: &[BNode], prims: &[Prim]) {
+    fn collapse(&mut self, tree: &[BNode], order: &[u32], prims: &[Prim]) {
         let leaf_like = |b: &BNode| b.is_leaf() || (b.tris_only && b.count <= LEAF_TRIS);
         // (binary node, parent node, slot): inner nodes still to emit
         let mut todo: Vec<(u32, u32, usize)> = vec![(0, u32::MAX, 0)];
@@ -520,7 +572,8 @@ impl Bvh {
                 while let Some(w) = walk.pop() {
                     let wn = &tree[w as usize];
                     if wn.is_leaf() {
-                        leaf_prims.push(wn.kids[0]);
+                        let first = wn.kids[0] as usize;
+                        leaf_prims.extend_from_slice(&order[first..first + wn.count as usize]);
                     } else {
                         walk.push(wn.kids[1]);
                         walk.push(wn.kids[0]);
@@ -576,8 +629,23 @@ impl Bvh {
     }
 }
 
-/// Centroid bins per axis of the SAH build.
+/// Centroid bins per axis of the SAH build at most (see [`bins_for`]).
 const BINS: usize = 32;
+/// Centroid bins per axis for a range of `n` primitives: [`BINS`] above 1024, 16 down to
+/// 33, 8 below. Small ranges leave most of 32 bins empty, and sweeping them costs as much as
+/// binning the primitives: with fewer bins the build of meshes.xml takes ~9 % fewer
+/// instructions, and the trees' SAH cost ([`Bvh::sah_cost`]) hardly changes (meshes.xml
+/// 8.2156 → 8.2195, bsdf_roughplastic_nopreserve 5.5015 → 5.4407).
+fn bins_for(n: usize) -> usize {
+    if n <= 32 {
+        8
+    } else if n <= 1024 {
+        16
+    } else {
+        BINS
+    }
+}
+
 /// Subtrees deeper than this are split at the object median rather than by the surface area
 /// heuristic, which bounds the build at O(n log n) even where the heuristic keeps splitting
 /// off one primitive at a time (exponentially spaced geometry); ordinary scenes of millions
@@ -591,7 +659,9 @@ fn half_area_f64(lo: Vec3, hi: Vec3) -> f64 {
 }
 
 /// What the build reads of a primitive, in one cache line: its (padded) box, the box's
-/// centroid (double precision, as the bins are placed) and whether it is a triangle.
+/// centroid (double precision, as the bins are placed), whether it is a triangle, and its
+/// index. The build partitions these records themselves (not indices to them), so each
+/// node's primitives lie consecutively in memory.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 struct PrimBox {
@@ -599,6 +669,7 @@ struct PrimBox {
     hi: Vec3A,
     c: DVec3,
     tri: bool,
+    index: u32,
 }
 
 /// The smaller of two centroids, per axis (no NaN is ever built: `f64::min` without its NaN
@@ -619,44 +690,53 @@ fn dmax(a: DVec3, b: DVec3) -> DVec3 {
 impl PrimBox {
     /// The record of a primitive with the (padded, finite) box `lo..hi`.
     #[inline]
-    fn new(lo: Vec3, hi: Vec3, tri: bool) -> PrimBox {
+    fn new(lo: Vec3, hi: Vec3, tri: bool, index: u32) -> PrimBox {
         PrimBox {
             lo: lo.into(),
             hi: hi.into(),
             c: (lo.as_dvec3() + hi.as_dvec3()) * 0.5,
             tri,
+            index,
         }
     }
 }
 
 /// [`build_tree`] over `boxes` (finite, one per primitive of `prims`).
 #[cfg(test)]
-fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> Vec<BNode> {
-    let pb: Vec<PrimBox> = boxes
+fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> (Vec<BNode>, Vec<u32>) {
+    let mut pb: Vec<PrimBox> = boxes
         .iter()
         .zip(prims)
-        .map(|(&(lo, hi), p)| PrimBox::new(lo, hi, matches!(p.shape, PrimShape::Triangle(_))))
+        .enumerate()
+        .map(|(i, (&(lo, hi), p))| {
+            PrimBox::new(lo, hi, matches!(p.shape, PrimShape::Triangle(_)), i as u32)
+        })
         .collect();
-    build_tree(&pb)
+    build_tree(&mut pb)
 }
 
-/// The binary build tree over the primitives' build records (at least one): one primitive
-/// per leaf, root first, parents before children, depth-first, counts filled in.
+/// The binary build tree over the primitives' build records (at least one), root first,
+/// parents before children, counts filled in, and the primitives in the order its leaves
+/// refer to. Leaves hold one primitive, or a range of at most [`LEAF_TRIS`] triangles (which
+/// `collapse` makes one leaf anyway: it is not split further). The tree has 2n − 1 slots
+/// (a subtree of m primitives owns 2m − 1 consecutive ones, so parallel parts write
+/// disjoint slices); slots after a subtree's last node stay placeholders, which no node
+/// refers to.
 ///
 /// Top-down binned SAH: each node bins its primitives' centroids into [`BINS`] slots along
 /// each axis of the centroid bounds and splits at the cheapest bin boundary (cost: area ×
 /// count on each side). Primitives whose centroids coincide, and subtrees deeper than
 /// [`MAX_SAH_DEPTH`], are split at the object median; every split is a partition of an index
 /// range, so the whole build is O(n log n) with an explicit stack (no recursion).
-fn build_tree(pb: &[PrimBox]) -> Vec<BNode> {
+fn build_tree(pb: &mut [PrimBox]) -> (Vec<BNode>, Vec<u32>) {
     let n = pb.len();
-    let mut idx: Vec<u32> = (0..n as u32).collect();
     // a binary tree with one primitive per leaf has 2n − 1 nodes, and each subtree of m
-    // primitives fills 2m − 1 consecutive ones (root first): every part of the build writes
-    // its own slice of one array
+    // primitives at most 2m − 1 (root first): every part of the build writes its own slice
+    // of one array
     let mut tree = vec![BNode::PLACEHOLDER; 2 * n - 1];
-    build_range(&mut idx, None, pb, 0, &mut tree, 0);
-    // children come after their parents: sum up in reverse
+    build_range(pb, 0, None, 0, &mut tree, 0);
+    // children come after their parents: sum up in reverse (placeholders look like leaves
+    // and are skipped; leaves have their counts)
     for i in (0..tree.len()).rev() {
         if !tree[i].is_leaf() {
             let [a, b] = tree[i].kids.map(|k| k as usize);
@@ -664,7 +744,7 @@ fn build_tree(pb: &[PrimBox]) -> Vec<BNode> {
             tree[i].tris_only = tree[a].tris_only && tree[b].tris_only;
         }
     }
-    tree
+    (tree, pb.iter().map(|p| p.index).collect())
 }
 
 /// Ranges at least this large build their two halves in parallel.
@@ -697,10 +777,10 @@ impl RangeBounds {
         self.chi = dmax(self.chi, p.c);
     }
 
-    fn of(range: &[u32], pb: &[PrimBox]) -> RangeBounds {
+    fn of(range: &[PrimBox]) -> RangeBounds {
         let mut b = RangeBounds::EMPTY;
-        for &i in range {
-            b.add(&pb[i as usize]);
+        for p in range {
+            b.add(p);
         }
         b
     }
@@ -710,35 +790,50 @@ impl RangeBounds {
 /// them on the way, the bounds of both parts.
 type Split = (usize, Option<[RangeBounds; 2]>);
 
-/// The node over `range` (at least one primitive; `bounds` its bounds when known) and its
-/// split; a single primitive gives a leaf and no split.
+/// The node over `range` (at least one primitive, the first at `first` in the primitive
+/// order; `bounds` its bounds when known) and its split; a single primitive, or at most
+/// [`LEAF_TRIS`] triangles, give a leaf and no split.
 fn node_and_split(
-    range: &mut [u32],
+    range: &mut [PrimBox],
+    first: u32,
     bounds: Option<RangeBounds>,
-    pb: &[PrimBox],
     depth: u32,
 ) -> (BNode, Option<Split>) {
     if range.len() == 1 {
-        let p = range[0];
-        let b = &pb[p as usize];
+        let b = &range[0];
         let leaf = BNode {
             lo: b.lo.into(),
             hi: b.hi.into(),
-            kids: [p, NO_CHILD],
+            kids: [first, NO_CHILD],
             count: 1,
             tris_only: b.tri,
         };
         return (leaf, None);
     }
-    let RangeBounds { lo, hi, clo, chi } = bounds.unwrap_or_else(|| RangeBounds::of(range, pb));
-    // A range of at most LEAF_TRIS triangles becomes one leaf (see `collapse`): how it is
-    // split below never matters, so it is halved as it stands.
-    let small = range.len() <= LEAF_TRIS as usize && range.iter().all(|&i| pb[i as usize].tri);
-    let split = if small {
-        (range.len() / 2, None)
-    } else {
-        split(range, pb, clo, chi, depth)
-    };
+    // A range of at most LEAF_TRIS triangles becomes one leaf (see `collapse`) as it stands.
+    let small = range.len() <= LEAF_TRIS as usize && range.iter().all(|p| p.tri);
+    if small {
+        let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+        match bounds {
+            Some(b) => (lo, hi) = (b.lo, b.hi),
+            None => {
+                for p in range.iter() {
+                    lo = lo.min(p.lo);
+                    hi = hi.max(p.hi);
+                }
+            }
+        }
+        let leaf = BNode {
+            lo: lo.into(),
+            hi: hi.into(),
+            kids: [first, NO_CHILD],
+            count: range.len() as u32,
+            tris_only: true,
+        };
+        return (leaf, None);
+    }
+    let RangeBounds { lo, hi, clo, chi } = bounds.unwrap_or_else(|| RangeBounds::of(range));
+    let split = split(range, clo, chi, depth);
     let node = BNode {
         lo: lo.into(),
         hi: hi.into(),
@@ -750,21 +845,22 @@ fn node_and_split(
 }
 
 /// The binary tree over the primitives `range` (root first, then the first part's subtree,
-/// then the second's; `bounds` the range's bounds when known), written to `out` (its
-/// 2·len − 1 nodes; `base` is the index of `out[0]` in the whole tree, which child indices
-/// refer to). Large ranges build their halves in parallel; the tree is the same whatever the
-/// number of threads.
+/// then the second's; `first` the position of `range[0]` in the whole primitive order,
+/// `bounds` the range's bounds when known), written to `out` (its 2·len − 1 slots, the
+/// last ones left unused where leaves hold several triangles; `base` is the index of
+/// `out[0]` in the whole tree, which child indices refer to). Large ranges build their halves
+/// in parallel; the tree is the same whatever the number of threads.
 fn build_range(
-    range: &mut [u32],
+    range: &mut [PrimBox],
+    first: u32,
     bounds: Option<RangeBounds>,
-    pb: &[PrimBox],
     depth: u32,
     out: &mut [BNode],
     base: u32,
 ) {
     debug_assert_eq!(out.len(), 2 * range.len() - 1);
     if range.len() >= PARALLEL_BUILD {
-        let (mut node, split) = node_and_split(range, bounds, pb, depth);
+        let (mut node, split) = node_and_split(range, first, bounds, depth);
         let (mid, parts) = split.expect("a large range splits");
         let [ba, bb] = parts.map_or([None, None], |[a, b]| [Some(a), Some(b)]);
         let (a, b) = range.split_at_mut(mid);
@@ -774,8 +870,8 @@ fn build_range(
         node.kids = [base + 1, second];
         root[0] = node;
         rayon::join(
-            || build_range(a, ba, pb, depth + 1, oa, base + 1),
-            || build_range(b, bb, pb, depth + 1, ob, second),
+            || build_range(a, first, ba, depth + 1, oa, base + 1),
+            || build_range(b, first + mid as u32, bb, depth + 1, ob, second),
         );
         return;
     }
@@ -788,7 +884,7 @@ fn build_range(
         if parent != NO_CHILD {
             out[parent as usize].kids[which] = base + index as u32;
         }
-        let (node, split) = node_and_split(&mut range[s..e], bounds, pb, depth);
+        let (node, split) = node_and_split(&mut range[s..e], first + s as u32, bounds, depth);
         out[index] = node;
         next += 1;
         if let Some((mid, parts)) = split {
@@ -797,7 +893,7 @@ fn build_range(
             todo.push((s, s + mid, index as u32, 0, depth + 1, ba));
         }
     }
-    debug_assert_eq!(next, out.len());
+    debug_assert!(next <= out.len());
 }
 
 /// A centroid bin of the SAH build: the bounds of its primitives' boxes and their number.
@@ -818,7 +914,7 @@ impl Bin {
 
 /// Reorders `range` (at least 2 primitives, centroid bounds `clo..chi`) into two non-empty
 /// parts: the length of the first and, for a SAH split, the bounds of both.
-fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) -> Split {
+fn split(range: &mut [PrimBox], clo: DVec3, chi: DVec3, depth: u32) -> Split {
     let ext = chi - clo;
     let axis = if ext.x >= ext.y && ext.x >= ext.z {
         0
@@ -827,12 +923,10 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
     } else {
         2
     };
-    let median = |range: &mut [u32]| {
+    let median = |range: &mut [PrimBox]| {
         let m = range.len() / 2;
         if ext[axis] > 0.0 {
-            range.select_nth_unstable_by(m, |&a, &b| {
-                pb[a as usize].c[axis].total_cmp(&pb[b as usize].c[axis])
-            });
+            range.select_nth_unstable_by(m, |a, b| a.c[axis].total_cmp(&b.c[axis]));
         }
         (m, None)
     };
@@ -841,12 +935,13 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
         return median(range);
     }
     // (the same quotient whether computed here or per primitive)
-    let scale: [f64; 3] = std::array::from_fn(|a| BINS as f64 / ext[a]);
+    let nb = bins_for(range.len());
+    let scale: [f64; 3] = std::array::from_fn(|a| nb as f64 / ext[a]);
     // (`as i64` then clamped: the same bin as `as usize` then `min(BINS − 1)` for every
     // value, NaN included, in fewer instructions)
     let bin_of = |c: f64, a: usize| -> usize {
         let k = ((c - clo[a]) * scale[a]) as i64;
-        k.clamp(0, BINS as i64 - 1) as usize
+        k.clamp(0, nb as i64 - 1) as usize
     };
     // best (cost, axis, first bin of the right side)
     let mut best = (f64::INFINITY, usize::MAX, 0usize);
@@ -875,9 +970,8 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
             // SAFETY (each block): SSE2 is part of the x86-64 baseline
             let (clo_xy, scale_xy) =
                 unsafe { (_mm_set_pd(clo.y, clo.x), _mm_set_pd(scale[1], scale[0])) };
-            let clamp = |k: i32| k.clamp(0, BINS as i32 - 1) as usize;
-            for &i in range.iter() {
-                let p = &pb[i as usize];
+            let clamp = |k: i32| k.clamp(0, nb as i32 - 1) as usize;
+            for p in range.iter() {
                 let (kx, ky) = unsafe {
                     let xy = _mm_mul_pd(_mm_sub_pd(_mm_set_pd(p.c.y, p.c.x), clo_xy), scale_xy);
                     let k = _mm_cvttpd_epi32(xy);
@@ -897,15 +991,13 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
-        for &i in range.iter() {
-            let p = &pb[i as usize];
+        for p in range.iter() {
             add(0, p);
             add(1, p);
             add(2, p);
         }
     } else {
-        for &i in range.iter() {
-            let p = &pb[i as usize];
+        for p in range.iter() {
             for (a, &on) in live.iter().enumerate() {
                 if on {
                     add(a, p);
@@ -922,7 +1014,7 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
         let mut right = [0.0f64; BINS];
         let (mut rlo, mut rhi, mut rn) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0u32);
         let mut cost_right = f64::NAN;
-        for k in (1..BINS).rev() {
+        for k in (1..nb).rev() {
             if bins[k].n > 0 {
                 rlo = rlo.min(bins[k].lo);
                 rhi = rhi.max(bins[k].hi);
@@ -932,7 +1024,7 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
             right[k] = cost_right;
         }
         let (mut llo, mut lhi, mut ln) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0u32);
-        for k in 1..BINS {
+        for k in 1..nb {
             // after an empty bin both sides are those of the boundary before it: the same
             // cost, which cannot be strictly better (small nodes leave most bins empty)
             if bins[k - 1].n == 0 {
@@ -959,8 +1051,7 @@ fn split(range: &mut [u32], pb: &[PrimBox], clo: DVec3, chi: DVec3, depth: u32) 
     let mut m = 0;
     let mut parts = [RangeBounds::EMPTY; 2];
     for j in 0..range.len() {
-        let i = range[j] as usize;
-        let p = &pb[i];
+        let p = &range[j];
         if bin_of(p.c[a], a) < k {
             parts[0].add(p);
             range.swap(m, j);
@@ -2184,9 +2275,9 @@ mod tests {
     }
 
     /// The binary build as it was before the start-up work (bounds recomputed per node, a
-    /// box and a centroid array, every bin swept), sequential: the reference that the
-    /// faster build must reproduce node for node.
-    fn reference_build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> Vec<BNode> {
+    /// box and a centroid array, every bin swept), sequential, compact: the reference that
+    /// the faster build must reproduce node for node (as [`canonical`] lists them).
+    fn reference_build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> (Vec<BNode>, Vec<u32>) {
         let cent: Vec<DVec3> = boxes
             .iter()
             .map(|(lo, hi)| (lo.as_dvec3() + hi.as_dvec3()) * 0.5)
@@ -2206,7 +2297,7 @@ mod tests {
                 tree.push(BNode {
                     lo,
                     hi,
-                    kids: [r[0], NO_CHILD],
+                    kids: [s as u32, NO_CHILD],
                     count: 1,
                     tris_only: tri(r[0]),
                 });
@@ -2237,16 +2328,24 @@ mod tests {
                 }
                 m
             };
-            let mid = if r.len() <= LEAF_TRIS as usize && r.iter().all(|&i| tri(i)) {
-                r.len() / 2
-            } else if ext[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+            if r.len() <= LEAF_TRIS as usize && r.iter().all(|&i| tri(i)) {
+                tree.push(BNode {
+                    lo,
+                    hi,
+                    kids: [s as u32, NO_CHILD],
+                    count: r.len() as u32,
+                    tris_only: true,
+                });
+                continue;
+            }
+            let mid = if ext[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
                 || depth >= MAX_SAH_DEPTH
             {
                 median(r)
             } else {
-                let bin_of = |c: f64, a: usize| {
-                    (((c - clo[a]) * (BINS as f64 / ext[a])) as usize).min(BINS - 1)
-                };
+                let nb = bins_for(r.len());
+                let bin_of =
+                    |c: f64, a: usize| (((c - clo[a]) * (nb as f64 / ext[a])) as usize).min(nb - 1);
                 let mut bins = [[(Vec3::INFINITY, Vec3::NEG_INFINITY, 0u32); BINS]; 3];
                 let live: [bool; 3] = std::array::from_fn(|a| ext[a] > 0.0);
                 for &i in r.iter() {
@@ -2261,7 +2360,7 @@ mod tests {
                 for a in (0..3).filter(|&a| live[a]) {
                     let mut right = [0.0f64; BINS];
                     let (mut rlo, mut rhi, mut rn) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0);
-                    for k in (1..BINS).rev() {
+                    for k in (1..nb).rev() {
                         rlo = rlo.min(bins[a][k].0);
                         rhi = rhi.max(bins[a][k].1);
                         rn += bins[a][k].2;
@@ -2272,7 +2371,7 @@ mod tests {
                         };
                     }
                     let (mut llo, mut lhi, mut ln) = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0);
-                    for k in 1..BINS {
+                    for k in 1..nb {
                         llo = llo.min(bins[a][k - 1].0);
                         lhi = lhi.max(bins[a][k - 1].1);
                         ln += bins[a][k - 1].2;
@@ -2320,7 +2419,31 @@ mod tests {
                 tree[i].tris_only = tree[a].tris_only && tree[b].tris_only;
             }
         }
-        tree
+        (tree, range)
+    }
+
+    /// A binary build tree's nodes depth-first, first child first, whatever slots they
+    /// occupy: box bits, count, triangles only, and for a leaf its primitives.
+    #[allow(clippy::type_complexity)]
+    fn canonical(
+        (tree, order): &(Vec<BNode>, Vec<u32>),
+    ) -> Vec<([u32; 3], [u32; 3], u32, bool, Vec<u32>)> {
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        let mut out = vec![];
+        let mut todo = vec![0usize];
+        while let Some(i) = todo.pop() {
+            let n = &tree[i];
+            let prims = if n.is_leaf() {
+                let first = n.kids[0] as usize;
+                order[first..first + n.count as usize].to_vec()
+            } else {
+                todo.push(n.kids[1] as usize);
+                todo.push(n.kids[0] as usize);
+                vec![]
+            };
+            out.push((bits(n.lo), bits(n.hi), n.count, n.tris_only, prims));
+        }
+        out
     }
 
     /// The build gives the reference build's tree, node for node and bit for bit: random
@@ -2399,14 +2522,13 @@ mod tests {
                     _ => unreachable!(),
                 })
                 .collect();
-            let want = reference_build_binary(&boxes, &prims);
-            let got = build_binary(&boxes, &prims);
+            let want = canonical(&reference_build_binary(&boxes, &prims));
+            let got = canonical(&build_binary(&boxes, &prims));
             assert_eq!(got.len(), want.len(), "{} primitives", prims.len());
             for (i, (g, w)) in got.iter().zip(&want).enumerate() {
-                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
                 assert_eq!(
-                    (bits(g.lo), bits(g.hi), g.kids, g.count, g.tris_only),
-                    (bits(w.lo), bits(w.hi), w.kids, w.count, w.tris_only),
+                    g,
+                    w,
                     "node {i} of {} ({} primitives)",
                     want.len(),
                     prims.len()

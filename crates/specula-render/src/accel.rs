@@ -11,8 +11,8 @@
 //! then collapsed into nodes of up to 8 children (greedily opening the child with the
 //! largest surface area); [`Bvh::sah_cost`] gives the result's SAH cost.
 //!
-//! Each node stores its children's boxes as arrays of f32 (one array per plane), so one ray is tested against all 8 boxes at once; subtrees of at most 8 triangles
-//! become leaves of one or two `TriPacket`s (4 triangles' vertices, one array per
+//! Each node stores its children's boxes as arrays of f32 (one array per plane), so one ray
+//! is tested against all 8 boxes at once; subtrees of at most 8 triangles become leaves of one or two `TriPacket`s (4 triangles' vertices, one array per
 //! coordinate), tested 4 at a time, or both packets as 8 lanes with AVX2 (leaves of 8 rather
 //! than 4 triangles: one node level less, ~6 % faster on meshes.xml). Nodes and packets are
 //! laid out depth-first. Closest-hit queries visit
@@ -468,17 +468,19 @@ impl Bvh {
         let Some(root) = self.nodes.first() else {
             return 0.0;
         };
-        let area = |n: &Node, s: usize| -> f64 {
-            let e = |a: usize| (n.b[2 * a + 1][s] as f64 - n.b[2 * a][s] as f64).max(0.0);
-            let (x, y, z) = (e(0), e(1), e(2));
-            x * y + y * z + z * x
+        // the box of slot `s` of a node
+        let slot = |n: &Node, s: usize| {
+            let plane = |k: usize| Vec3::new(n.b[k][s], n.b[k + 2][s], n.b[k + 4][s]);
+            (plane(0), plane(1))
+        };
+        let area = |n: &Node, s: usize| {
+            let (lo, hi) = slot(n, s);
+            half_area_f64(lo, hi)
         };
         let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
         for s in 0..WIDTH {
-            for a in 0..3 {
-                lo[a] = lo[a].min(root.b[2 * a][s]);
-                hi[a] = hi[a].max(root.b[2 * a + 1][s]);
-            }
+            let (l, h) = slot(root, s);
+            (lo, hi) = (lo.min(l), hi.max(h));
         }
         let root_area = half_area_f64(lo, hi);
         if root_area <= 0.0 {
@@ -723,8 +725,8 @@ fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> (Vec<BNode>, Vec<u32>
 /// disjoint slices); slots after a subtree's last node stay placeholders, which no node
 /// refers to.
 ///
-/// Top-down binned SAH: each node bins its primitives' centroids into [`BINS`] slots along
-/// each axis of the centroid bounds and splits at the cheapest bin boundary (cost: area ×
+/// Top-down binned SAH: each node bins its primitives' centroids into [`bins_for`] slots
+/// along each axis of the centroid bounds and splits at the cheapest bin boundary (cost: area ×
 /// count on each side). Primitives whose centroids coincide, and subtrees deeper than
 /// [`MAX_SAH_DEPTH`], are split at the object median; every split is a partition of an index
 /// range, so the whole build is O(n log n) with an explicit stack (no recursion).
@@ -810,19 +812,9 @@ fn node_and_split(
         };
         return (leaf, None);
     }
+    let RangeBounds { lo, hi, clo, chi } = bounds.unwrap_or_else(|| RangeBounds::of(range));
     // A range of at most LEAF_TRIS triangles becomes one leaf (see `collapse`) as it stands.
-    let small = range.len() <= LEAF_TRIS as usize && range.iter().all(|p| p.tri);
-    if small {
-        let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-        match bounds {
-            Some(b) => (lo, hi) = (b.lo, b.hi),
-            None => {
-                for p in range.iter() {
-                    lo = lo.min(p.lo);
-                    hi = hi.max(p.hi);
-                }
-            }
-        }
+    if range.len() <= LEAF_TRIS as usize && range.iter().all(|p| p.tri) {
         let leaf = BNode {
             lo: lo.into(),
             hi: hi.into(),
@@ -832,7 +824,6 @@ fn node_and_split(
         };
         return (leaf, None);
     }
-    let RangeBounds { lo, hi, clo, chi } = bounds.unwrap_or_else(|| RangeBounds::of(range));
     let split = split(range, clo, chi, depth);
     let node = BNode {
         lo: lo.into(),

@@ -13,12 +13,11 @@
 //!
 //! with M measured over [`LOBE_MU`] bins of μ on each side that narrow towards the horizon
 //! ([`mu_edges`]) and [`LOBE_PHI`] bins of the azimuth difference Δφ ∈ [0, π] that narrow
-//! towards π ([`phi_edge`]), and interpolated
-//! piecewise linearly between the bins' centres — in x = μ² for μi and μo, in Δφ — with hat
-//! functions, constant beyond the outer centres (a piecewise-constant lobe lost the peak of
-//! grazing incidences to its bins). Seen as one matrix over the 2 × [`LOBE_MU`] μ nodes of
-//! both sides (outside first), M is symmetric: the reflection lobes are reciprocal,
-//! and the transmission outside → inside is exactly η² times the reverse one, the generalised
+//! towards π ([`phi_edge`]), and interpolated piecewise linearly between the bins' centres —
+//! in x = μ² for μi and μo, in Δφ — with hat functions, constant beyond the outer centres (a
+//! piecewise-constant lobe lost the peak of grazing incidences to its bins). Seen as one
+//! matrix over the 2 × [`LOBE_MU`] μ nodes of both sides (outside first), M is symmetric: the
+//! reflection lobes are reciprocal, and the transmission outside → inside is exactly η² times the reverse one, the generalised
 //! reciprocity of refraction. Kulla and Conty's separable lobes (with their hemispherically
 //! averaged crossing energy x, see [`super`]) are the constant blocks
 //! M_oo = (1 − E_o,avg − x) / (π (1 − E_o,avg)²), M_oi = x / (π (1 − E_o,avg)(1 − E_i,avg)),
@@ -68,11 +67,12 @@
 //! measured cells are integrals over bins; each enters multiplied by A_c / Ā_c, Ā_c = 2 × its
 //! Δφ bin's width, so that M at a node is its bin's mean; the μ bins' weights differ from the
 //! hats' by a factor per row, which the scaling absorbs. A per-row factor computed from the
-//! bins, ν_r / ν̄_r, would be 0/0 where c vanishes.) Each node's row then integrates to 1 against c(μo), the hats of μi are a partition
-//! of unity, and so every lobe row integrates to exactly c(μi) for every μi (c follows E
-//! continuously), R + T = 1 from both sides, for any η and, for a constant roughness, any α;
-//! between the roughness nodes of a textured roughness to second order. The R/T split of each incidence is the walk's, not a
-//! constant: the hemispherically averaged crossing energy x is the measured one.
+//! bins, ν_r / ν̄_r, would be 0/0 where c vanishes.) Each node's row then integrates to 1
+//! against c(μo), the hats of μi are a partition of unity, and so every lobe row integrates to
+//! exactly c(μi) for every μi (c follows E continuously), R + T = 1 from both sides, for any η
+//! and, for a constant roughness, any α; between the roughness nodes of a textured roughness
+//! to second order. The R/T split of each incidence is the walk's, not a constant: the
+//! hemispherically averaged crossing energy x is the measured one.
 //!
 //! **Sampling**: a (roughness node, μi node) pair with probability ∝ their weights × the
 //! node row's total Z, a (side and μ node, Δφ node) from the row's discrete distribution

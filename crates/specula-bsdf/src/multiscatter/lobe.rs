@@ -118,8 +118,74 @@ pub(crate) fn phi_bin(wi: Vec3, wo: Vec3) -> usize {
 /// Also returns the relative asymmetry of the unsymmetrised estimate (Σ|J − Jᵀ| / 2ΣJ) per
 /// node, a check of the walk's reciprocity and of the estimate's noise.
 pub fn lobe_joint_from_walk(kind: MicrofacetType, walks: usize) -> (Vec<f64>, Vec<f64>) {
+    let rows = lobe_rows(kind, 1..LOBE_ALPHAS, walks);
+    let mut joint = vec![0.0f64; LOBE_ALPHAS * SLICE];
+    let mut asym = vec![0.0f64; LOBE_ALPHAS];
+    for (n, h) in rows.iter().enumerate() {
+        let (a, i) = (n / LOBE_MU + 1, n % LOBE_MU);
+        joint[a * SLICE + i * ROW..][..ROW].copy_from_slice(h);
+    }
+    for a in 1..LOBE_ALPHAS {
+        asym[a] = symmetrise(&mut joint[a * SLICE..][..SLICE]);
+    }
+    (joint, asym)
+}
+
+/// Walks per (roughness node, μi bin) of the committed `lobe.bin`.
+pub const LOBE_WALKS: usize = 400_000;
+
+/// The data file's record of roughness node `a` (1 … [`LOBE_ALPHAS`] − 1) of a distribution,
+/// computed afresh: the same walks, seeds and encoding as [`lobe_joint_from_walk`] and
+/// [`encode_lobe_tables`] with `walks` walks, for one node (a test regenerates some and
+/// compares them with the committed bytes).
+pub fn lobe_node_record(kind: MicrofacetType, a: usize, walks: usize) -> Vec<u8> {
+    let mut joint: Vec<f64> = lobe_rows(kind, a..a + 1, walks).concat();
+    symmetrise(&mut joint);
+    let mut out = Vec::new();
+    encode_symmetric(&mut out, &joint, LOBE_MU);
+    out
+}
+
+/// The committed record of roughness node `a` of a distribution (`None` without data).
+pub fn committed_lobe_node_record(kind: MicrofacetType, a: usize) -> Option<&'static [u8]> {
+    let per = LOBE_ALPHAS * (4 + 2 * TRI);
+    if LOBE_DATA.len() != MAGIC.len() + 2 * per || a >= LOBE_ALPHAS {
+        return None;
+    }
+    let start = MAGIC.len() + kind_index(kind) * per + a * (4 + 2 * TRI);
+    LOBE_DATA.get(start..start + 4 + 2 * TRI)
+}
+
+/// Makes one node's joint symmetric (the mean of it and its transpose); returns the relative
+/// asymmetry it had.
+fn symmetrise(s: &mut [f64]) -> f64 {
+    let (mut diff, mut total) = (0.0, 0.0);
+    for i in 0..LOBE_MU {
+        for b in i..LOBE_MU {
+            for c in 0..LOBE_PHI {
+                let (p, q) = (i * ROW + b * LOBE_PHI + c, b * ROW + i * LOBE_PHI + c);
+                let m = 0.5 * (s[p] + s[q]);
+                diff += (s[p] - s[q]).abs();
+                total += s[p] + if p != q { s[q] } else { 0.0 };
+                s[p] = m;
+                s[q] = m;
+            }
+        }
+    }
+    if total > 0.0 {
+        0.5 * diff / total
+    } else {
+        0.0
+    }
+}
+
+/// The measured rows (μi bins) of roughness nodes `nodes`, in order; row n of the whole
+/// measurement ((node − 1) × [`LOBE_MU`] + bin) walks with seed n + 1.
+fn lobe_rows(kind: MicrofacetType, nodes: std::ops::Range<usize>, walks: usize) -> Vec<Vec<f64>> {
     use crate::models::microsurface_walk::{MicrosurfaceWalk, WalkMaterial};
-    let rows = parallel_rows((LOBE_ALPHAS - 1) * LOBE_MU, |n| {
+    let first = (nodes.start - 1) * LOBE_MU;
+    parallel_rows(nodes.len() * LOBE_MU, |n| {
+        let n = n + first;
         let (a, i) = (n / LOBE_MU + 1, n % LOBE_MU);
         let alpha = alpha_node(a, LOBE_ALPHAS);
         let walk = MicrosurfaceWalk::new(
@@ -158,34 +224,12 @@ pub fn lobe_joint_from_walk(kind: MicrofacetType, walks: usize) -> (Vec<f64>, Ve
         let scale = bin_m(i) / walks as f64;
         h.iter_mut().for_each(|v| *v *= scale);
         h
-    });
-    let mut joint = vec![0.0f64; LOBE_ALPHAS * SLICE];
-    let mut asym = vec![0.0f64; LOBE_ALPHAS];
-    for (n, h) in rows.iter().enumerate() {
-        let (a, i) = (n / LOBE_MU + 1, n % LOBE_MU);
-        joint[a * SLICE + i * ROW..][..ROW].copy_from_slice(h);
-    }
-    for a in 1..LOBE_ALPHAS {
-        let s = &mut joint[a * SLICE..][..SLICE];
-        let (mut diff, mut total) = (0.0, 0.0);
-        for i in 0..LOBE_MU {
-            for b in i..LOBE_MU {
-                for c in 0..LOBE_PHI {
-                    let (p, q) = (i * ROW + b * LOBE_PHI + c, b * ROW + i * LOBE_PHI + c);
-                    let m = 0.5 * (s[p] + s[q]);
-                    diff += (s[p] - s[q]).abs();
-                    total += s[p] + if p != q { s[q] } else { 0.0 };
-                    s[p] = m;
-                    s[q] = m;
-                }
-            }
-        }
-        asym[a] = if total > 0.0 { 0.5 * diff / total } else { 0.0 };
-    }
-    (joint, asym)
+    })
 }
 
 const MAGIC: &[u8; 8] = b"SPMSLOB1";
+/// Values of a node's upper triangle.
+const TRI: usize = LOBE_MU * (LOBE_MU + 1) / 2 * LOBE_PHI;
 
 fn kind_index(kind: MicrofacetType) -> usize {
     match kind {
@@ -250,7 +294,6 @@ pub fn encode_lobe_tables(joints: [&[f64]; 2]) -> Vec<u8> {
 /// The joint of one distribution from [`encode_lobe_tables`]'s bytes (`None`: no or a
 /// malformed file).
 fn decode_lobe_table(bytes: &[u8], kind: MicrofacetType) -> Option<Vec<f64>> {
-    const TRI: usize = LOBE_MU * (LOBE_MU + 1) / 2 * LOBE_PHI;
     let per = LOBE_ALPHAS * (4 + 2 * TRI);
     if bytes.len() != MAGIC.len() + 2 * per || &bytes[..MAGIC.len()] != MAGIC {
         return None;
@@ -658,6 +701,29 @@ mod tests {
             decode_lobe_table(&LOBE_DATA[..LOBE_DATA.len() - 1], MicrofacetType::Ggx).is_none()
         );
     }
+
+    /// The committed data is the output of Specula's own generator: a smooth and a rough
+    /// roughness node of each distribution, regenerated with the committed walk count and
+    /// seeds, encode to the committed bytes exactly (each row's walks are a deterministic
+    /// function of its seed).
+    #[test]
+    fn committed_data_is_the_generators_output() {
+        for (kind, a) in [
+            (MicrofacetType::Ggx, 3),
+            (MicrofacetType::Ggx, LOBE_ALPHAS - 1),
+            (MicrofacetType::Beckmann, LOBE_ALPHAS - 5),
+        ] {
+            let committed = committed_lobe_node_record(kind, a).expect("data");
+            let fresh = lobe_node_record(kind, a, LOBE_WALKS);
+            let differing = fresh.iter().zip(committed).filter(|(x, y)| x != y).count();
+            assert!(
+                fresh.len() == committed.len() && differing == 0,
+                "{kind:?} node {a}: {differing} of {} bytes differ",
+                committed.len()
+            );
+        }
+    }
+
     use crate::multiscatter::{conductor_tables, FresnelFit};
 
     /// ∫ f_ms(ωi, ωo) μo dωo of the white conductor's compensation lobe as the model

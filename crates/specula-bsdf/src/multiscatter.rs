@@ -13,9 +13,11 @@
 //! **Tables.** E(μ, α) = ∫ f_ss(μ, ωo) |cosθo| dωo, the directional albedo of the white
 //! single-scattering model, is computed by Specula's own quadrature on first use: a
 //! [`quad_res`]² Gauss–Legendre rule over the visible-normal sample space, accumulated in f64,
-//! at [`MU_RES`] nodes uniform in t = √μ (dense at grazing angles, where E changes fastest)
-//! and, for tables that cover textured roughness, [`ALPHA_RES`] nodes uniform in √α, α ∈ [0, 1].
-//! E is interpolated linearly in (√α, √μ); E_avg(α) = 2∫E μ dμ is the *exact* integral of that
+//! at [`MU_RES`] nodes uniform in t = √μ (dense at grazing angles, where E changes fastest;
+//! dielectrics: [`DIEL_MU_RES`] nodes uniform in v = (2/π) asin √μ, also dense near the normal,
+//! where E from inside has a kink in θ, `mu_node_arc`) and, for tables that cover textured
+//! roughness, [`ALPHA_RES`] nodes uniform in √α, α ∈ [0, 1]. E is interpolated linearly in
+//! (√α, t or v); E_avg(α) = 2∫E μ dμ is the *exact* integral of that
 //! interpolant, so the compensation lobe below returns exactly 1 − E_table(μ), and the
 //! furnace error is only the table's (interpolation and quadrature), below 0.2 % (tests).
 //! Conductor tables (one per distribution) are global ([`conductor_table`]); dielectric ones
@@ -197,6 +199,8 @@ pub use lobe::{lobe_table, LobeTable};
 
 /// Nodes of the tables over t = √μ.
 pub const MU_RES: usize = 32;
+/// Nodes of the dielectric tables over v = (2/π) asin √μ (`mu_node_arc`).
+pub const DIEL_MU_RES: usize = 48;
 /// Nodes of the tables over α ∈ [0, 1] (for textured or anisotropic roughness).
 pub const ALPHA_RES: usize = 33;
 /// Gauss–Legendre nodes per dimension of the visible-normal quadrature (GGX's nodes are
@@ -250,7 +254,12 @@ pub struct EnergyTable {
     /// (`azimuthal`) azimuth nodes uniform on [0, π/2] for one anisotropic roughness.
     alpha_nodes: usize,
     azimuthal: bool,
-    /// E per α node, `MU_RES` values over t = √μ.
+    /// The μ axis: [`MU_RES`] nodes uniform in t = √μ, or (`arc`) [`DIEL_MU_RES`] nodes uniform
+    /// in v = (2/π) asin √μ (`mu_node_arc`).
+    arc: bool,
+    /// Nodes per row.
+    res: usize,
+    /// E per α node, `res` values uniform on the μ axis.
     e: Vec<f32>,
     /// 2∫E μ dμ of the interpolant, per α node.
     e_avg: Vec<f32>,
@@ -260,6 +269,20 @@ pub struct EnergyTable {
 fn mu_node(j: usize) -> f32 {
     let t = j as f32 / (MU_RES - 1) as f32;
     (t * t).max(MU_MIN)
+}
+
+/// The μ of node `j` of a table uniform in v = (2/π) asin √μ, μ = sin²(πv/2) (the dielectric
+/// tables): like t = √μ it is proportional to √μ at grazing, where E changes fastest, and near
+/// the normal it is linear in θ, in which the albedo from inside a low-index interface has a
+/// kink at θ = 0 (total internal reflection sets in symmetrically about the normal): over t
+/// the last interval spans θ 0–20° and interpolating E linearly in t put it 0.008 above the
+/// quadrature at 11.5° (Beckmann α = 1, η = 1/1.139; the compensated interface then lost
+/// 0.8 % of the energy there, above the furnace target of 0.5 %). v is coarser than t below
+/// μ ≈ 0.6 (by up to π/2 at grazing), so these tables have [`DIEL_MU_RES`] nodes rather than
+/// [`MU_RES`]: with 32, Beckmann α = 0.6, η = 1/1.1 at 80° came out 0.53 % low.
+fn mu_node_arc(j: usize) -> f32 {
+    let v = j as f64 / (DIEL_MU_RES - 1) as f64;
+    ((std::f64::consts::FRAC_PI_2 * v).sin().powi(2) as f32).max(MU_MIN)
 }
 
 /// Roughness of α node `i` of a table of `n` nodes covering [0, 1], uniform in √α (the
@@ -273,6 +296,43 @@ impl EnergyTable {
     /// Tabulate `f(μ)` for each roughness (E clamped to [0, 1]).
     fn from_rows(rows: Vec<[f64; MU_RES]>) -> Self {
         Self::from_rows_axis(rows, false)
+    }
+
+    /// Tabulate `f(μ)` at the [`DIEL_MU_RES`] nodes of `mu_node_arc` for each roughness
+    /// (E clamped to [0, 1]).
+    fn from_rows_arc(rows: Vec<[f64; DIEL_MU_RES]>) -> Self {
+        let e: Vec<f32> = rows
+            .iter()
+            .flatten()
+            .map(|v| v.clamp(0.0, 1.0) as f32)
+            .collect();
+        let mut t = EnergyTable {
+            alpha_nodes: rows.len(),
+            azimuthal: false,
+            arc: true,
+            res: DIEL_MU_RES,
+            e,
+            e_avg: vec![0.0; rows.len()],
+        };
+        // 2∫E μ dμ = 2∫ E(v) sin²(πv/2) (π/2) sin(πv) dv, E linear on each interval
+        let (x, w) = gauss_legendre(8);
+        let h = 1.0 / (DIEL_MU_RES - 1) as f64;
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        for (i, avg) in t.e_avg.iter_mut().enumerate() {
+            let row = &t.e[i * DIEL_MU_RES..][..DIEL_MU_RES];
+            let mut sum = 0.0f64;
+            for j in 0..DIEL_MU_RES - 1 {
+                for (xk, wk) in x.iter().zip(&w) {
+                    let s = 0.5 * (xk + 1.0);
+                    let v = (j as f64 + s) * h;
+                    let ev = row[j] as f64 * (1.0 - s) + row[j + 1] as f64 * s;
+                    let jac = (half_pi * v).sin().powi(2) * half_pi * (2.0 * half_pi * v).sin();
+                    sum += 2.0 * ev * jac * wk * 0.5 * h;
+                }
+            }
+            *avg = sum as f32;
+        }
+        t
     }
 
     fn from_rows_axis(rows: Vec<[f64; MU_RES]>, azimuthal: bool) -> Self {
@@ -298,6 +358,8 @@ impl EnergyTable {
         EnergyTable {
             alpha_nodes: rows.len(),
             azimuthal,
+            arc: false,
+            res: MU_RES,
             e,
             e_avg,
         }
@@ -323,11 +385,17 @@ impl EnergyTable {
     #[inline]
     pub fn e(&self, alpha: f32, mu: f32) -> f32 {
         let (i, wa) = self.alpha_coord(alpha);
-        let x = mu.abs().min(1.0).sqrt() * (MU_RES - 1) as f32;
-        let j = (x as usize).min(MU_RES - 2);
+        let t = mu.abs().min(1.0).sqrt();
+        let t = if self.arc {
+            t.asin() * std::f32::consts::FRAC_2_PI
+        } else {
+            t
+        };
+        let x = t * (self.res - 1) as f32;
+        let j = (x as usize).min(self.res - 2);
         let wt = x - j as f32;
         let row = |i: usize| {
-            let r = &self.e[i * MU_RES..];
+            let r = &self.e[i * self.res..];
             r[j] + (r[j + 1] - r[j]) * wt
         };
         if self.alpha_nodes == 1 || wa == 0.0 {
@@ -1213,30 +1281,30 @@ impl DielectricEnergy {
             None => (0..ALPHA_RES).map(|i| alpha_node(i, ALPHA_RES)).collect(),
         };
         let side = |eta: f32| {
-            // one job per (α, μ) node: a one-roughness table has only MU_RES of them
-            let nodes = parallel_rows(alphas.len() * MU_RES, |n| {
-                let a = alphas[n / MU_RES];
+            // one job per (α, μ) node: a one-roughness table has only DIEL_MU_RES of them
+            let nodes = parallel_rows(alphas.len() * DIEL_MU_RES, |n| {
+                let a = alphas[n / DIEL_MU_RES];
                 let distr = MicrofacetDistribution::new(kind, a, a, true);
                 dielectric_albedo(
                     &distr,
                     fresnel,
                     eta,
-                    mu_node(n % MU_RES),
+                    mu_node_arc(n % DIEL_MU_RES),
                     quad_res(kind),
                     correlated,
                 )
             });
-            let rows = |k: usize| -> Vec<[f64; MU_RES]> {
+            let rows = |k: usize| -> Vec<[f64; DIEL_MU_RES]> {
                 nodes
-                    .chunks(MU_RES)
+                    .chunks(DIEL_MU_RES)
                     .map(|c| {
                         std::array::from_fn(|j| if k == 0 { c[j][0] + c[j][1] } else { c[j][1] })
                     })
                     .collect()
             };
             (
-                EnergyTable::from_rows(rows(0)),
-                EnergyTable::from_rows(rows(1)),
+                EnergyTable::from_rows_arc(rows(0)),
+                EnergyTable::from_rows_arc(rows(1)),
             )
         };
         let (e_out, t_out) = side(eta);

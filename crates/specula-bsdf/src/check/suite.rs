@@ -3,7 +3,7 @@
 //! | check | what | criterion |
 //! |---|---|---|
 //! | `non-negative` | [`finite_nonnegative`] on random and degenerate directions | every f, pdf, sample finite and ≥ 0 |
-//! | `reciprocity` | [`reciprocity`] over random pairs (η² relation for refraction) | max relative error ≤ [`RECIPROCITY_TOL`] |
+//! | `reciprocity` | `reciprocity` over random pairs (η² relation for refraction) | max relative error ≤ [`RECIPROCITY_TOL`] |
 //! | `energy` | white-furnace albedo ([`albedo`], importance transport) per θi and channel | one-sided z-test of albedo ≤ 1 |
 //! | `sampling-chi2` | [`chi2_test`] of `sample` against `pdf` per θi | p ≥ per-test significance |
 //! | `lobe-selection` | instead of χ² for materials made only of Dirac lobes ([`lobe_selection_test`]) | p ≥ per-test significance |

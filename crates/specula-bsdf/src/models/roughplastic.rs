@@ -711,7 +711,7 @@ impl RoughPlastic {
     }
 
     /// The coat's transmittance for a cosine: linear interpolation in the table (Mitsuba's);
-    /// with `multiscatter`, its exact value (see [`coat_transmittance`]).
+    /// with `multiscatter`, its exact value (see `coat_transmittance`).
     #[inline]
     pub fn transmittance(&self, cos_theta: f32) -> f32 {
         if let Some((ms, q)) = &self.multiscatter {

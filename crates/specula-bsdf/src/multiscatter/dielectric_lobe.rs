@@ -56,12 +56,12 @@
 //! The file stores the height-correlated joint per (distribution, η node, roughness node) as
 //! 16-bit square roots of the upper triangle.
 //!
-//! **Normalisation** ([`DielectricLobe::build`], per material, when its energy tables are
+//! **Normalisation** (`DielectricLobe::build`, per material, when its energy tables are
 //! built): the joint is interpolated linearly in cos θc and √α between the nodes (each node's
 //! joint normalised to unit total; η < 1 reads the nodes of 1/η with the sides exchanged,
 //! η outside [1.05, 3] the nearest node). Its cells are integrals over bins of
 //! c(μi) c(μo) M μi μo; the nodal values V of the interpolated M whose integrals over the bins
-//! they are follow from three small linear solves (**histopolation**, [`Axis::histopolation`]:
+//! they are follow from three small linear solves (**histopolation**, `Axis::histopolation`:
 //! J = W V Wᵀ along μi and μo, W_rb = ∫ over bin r of h_b(μ²) c(μ) μ dμ with this material's
 //! own c, and likewise along Δφ). Taking each bin's mean as its node's value instead smoothed
 //! the lobe: Beckmann α = 1 at η = 1.14 (a node) seen from inside at 85° lost 0.032 of its
@@ -320,7 +320,7 @@ const TRI: usize = NR * (NR + 1) / 2 * LOBE_PHI;
 
 /// The data file for the joints of GGX and Beckmann against the height-correlated
 /// single-scattering model (in that order): the magic, then per joint set and measured node
-/// [`encode_symmetric`]'s record (rows, rows, Δφ).
+/// `encode_symmetric`'s record (rows, rows, Δφ).
 pub fn encode_dielectric_tables(joints: [&[f64]; 2]) -> Vec<u8> {
     let mut out = MAGIC.to_vec();
     for j in joints {
@@ -478,7 +478,7 @@ fn interpolated_joint(j: &[f32], eta: f32, alpha: f32, out: &mut [f64]) {
     }
 }
 
-/// Applies the inverse bin-integral matrices to a joint of bin integrals ([`Axis::histopolation`]):
+/// Applies the inverse bin-integral matrices to a joint of bin integrals (`Axis::histopolation`):
 /// `w_inv` per side to both μ indices (its rows and its columns, so a symmetric joint stays
 /// symmetric), `u_inv` to Δφ.
 fn histopolate(joint: &mut [f64], w_inv: &[[[f64; 16]; 16]; 2], u_inv: &[[f64; 16]; 16]) {

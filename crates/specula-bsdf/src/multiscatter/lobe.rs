@@ -259,7 +259,7 @@ pub(super) fn encode_symmetric(out: &mut Vec<u8>, s: &[f64], n: usize) {
     }
 }
 
-/// Reads one node written by [`encode_symmetric`] from `bytes` at `*p` (advanced past it) into
+/// Reads one node written by `encode_symmetric` from `bytes` at `*p` (advanced past it) into
 /// `s` (both triangles); `None` if the bytes end early.
 pub(super) fn decode_symmetric(bytes: &[u8], p: &mut usize, s: &mut [f64], n: usize) -> Option<()> {
     let scale = f32::from_le_bytes(bytes.get(*p..*p + 4)?.try_into().ok()?) as f64;
@@ -280,7 +280,7 @@ pub(super) fn decode_symmetric(bytes: &[u8], p: &mut usize, s: &mut [f64], n: us
 }
 
 /// The data file for the joints of GGX and Beckmann (in that order): the magic, then per
-/// distribution and roughness node [`encode_symmetric`]'s record (μi, μo bins, then Δφ).
+/// distribution and roughness node `encode_symmetric`'s record (μi, μo bins, then Δφ).
 pub fn encode_lobe_tables(joints: [&[f64]; 2]) -> Vec<u8> {
     let mut out = MAGIC.to_vec();
     for j in joints {
@@ -681,7 +681,7 @@ pub fn lobe_table(kind: MicrofacetType) -> &'static LobeTable {
     })
 }
 
-/// [`LobeTable::build`] from a joint in memory (the generator's check before writing).
+/// `LobeTable::build` from a joint in memory (the generator's check before writing).
 pub fn lobe_table_from(kind: MicrofacetType, joint: &[f64]) -> LobeTable {
     LobeTable::build(Some(joint), super::conductor_tables(kind))
 }
@@ -691,7 +691,7 @@ mod tests {
     use super::*;
 
     /// The committed file decodes and re-encodes to the same bytes (the shared record
-    /// format of [`encode_symmetric`] / [`decode_symmetric`]), and a truncated one is refused.
+    /// format of `encode_symmetric` / [`decode_symmetric`]), and a truncated one is refused.
     #[test]
     fn lobe_file_round_trips_byte_for_byte() {
         let g = decode_lobe_table(LOBE_DATA, MicrofacetType::Ggx).unwrap();

@@ -414,7 +414,7 @@ impl Table {
     }
 
     /// The grid from [`Table::to_bytes`]'s format, checked: size, magic, format, resolution,
-    /// checksum, finite values, and [`CHECK_COLUMNS`] recomputed by this build's solver and
+    /// checksum, finite values, and `CHECK_COLUMNS` recomputed by this build's solver and
     /// compared bit for bit (a cache written by another version of the solver is refused).
     pub fn from_bytes(bytes: &[u8]) -> Result<Table, String> {
         let n = 3 * RES * RES * RES;

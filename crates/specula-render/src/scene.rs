@@ -682,6 +682,10 @@ fn shape_attributes(geom: &Geometry) -> Option<Vec<(String, usize)>> {
     }
 }
 
+/// Primitives from which the scene's BVH is built on a thread of its own beside the BSDFs; a
+/// smaller one (about a millisecond) is built after them, without a thread.
+const BVH_BESIDE: usize = 4096;
+
 /// The scene's BVH (its phase timed on the thread that builds it).
 fn build_bvh(geometry: &[Geometry]) -> Bvh {
     let _t = crate::timings::span(crate::timings::Phase::Bvh);
@@ -721,22 +725,7 @@ impl Builder {
                 return Err(e);
             }
         };
-        // the BVH is built on a thread of its own while the BSDFs wait for their images
-        let geometry = &parts.geometry;
-        let (bsdfs, accel) = std::thread::scope(|s| {
-            let bvh = std::thread::Builder::new()
-                .name("specula-bvh".into())
-                .spawn_scoped(s, || build_bvh(geometry));
-            let bsdfs = self.build_pending(materials);
-            match bvh {
-                Ok(h) => {
-                    let accel = h.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
-                    Ok((bsdfs?, accel))
-                }
-                // (without a thread, after them)
-                Err(_) => Ok((bsdfs?, build_bvh(geometry))),
-            }
-        })?;
+        let (bsdfs, accel) = self.bsdfs_and_bvh(materials, &parts.geometry)?;
         root.check_unused(&[])?;
         let Some((camera, film, sampler)) = sensor else {
             return Err(SceneError::new(
@@ -778,6 +767,41 @@ impl Builder {
             volpath: parts.media.volpath,
             spectral: false,
             light_colours: Vec::new(),
+        })
+    }
+
+    /// Builds the pending BSDFs ([`Builder::build_pending`]) and the BVH over `geometry`: a
+    /// large BVH on a thread of its own meanwhile (the BSDFs mostly wait for their images
+    /// and tables), a small one after them.
+    fn bsdfs_and_bvh(
+        &mut self,
+        materials: Materials,
+        geometry: &[Geometry],
+    ) -> Result<(Vec<Bsdf>, Bvh)> {
+        let primitives: usize = geometry
+            .iter()
+            .map(|g| match g {
+                Geometry::Mesh(m) => m.indices.len(),
+                _ => 1,
+            })
+            .sum();
+        if primitives < BVH_BESIDE {
+            let bsdfs = self.build_pending(materials)?;
+            return Ok((bsdfs, build_bvh(geometry)));
+        }
+        std::thread::scope(|s| {
+            let bvh = std::thread::Builder::new()
+                .name("specula-bvh".into())
+                .spawn_scoped(s, || build_bvh(geometry));
+            let bsdfs = self.build_pending(materials);
+            match bvh {
+                Ok(h) => {
+                    let accel = h.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
+                    Ok((bsdfs?, accel))
+                }
+                // (no thread: after them)
+                Err(_) => Ok((bsdfs?, build_bvh(geometry))),
+            }
         })
     }
 

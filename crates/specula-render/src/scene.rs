@@ -641,9 +641,9 @@ struct Parts<'a> {
 /// images to be decoded (and a `roughplastic` for its tables), so the walk only gives each its
 /// index and leaves it pending, with the checks of the shapes' mesh attributes against it;
 /// [`Builder::build_pending`] builds them in document order afterwards, while the BVH is built
-/// over the finished geometry. The walk meets nothing that depends on a BSDF but its index,
-/// and an error it meets is reported after the pending work before it (the first error in
-/// document order, as when everything is built as it is met).
+/// over the finished geometry ([`Builder::bsdfs_and_bvh`]). The walk meets nothing that
+/// depends on a BSDF but its index, and an error it meets is reported after the pending work
+/// before it (the first error in document order, as when everything is built as it is met).
 #[derive(Default)]
 struct Materials<'a> {
     /// Per index: built, or to be built by a [`Pending::Bsdf`].

@@ -344,7 +344,8 @@ def section_startup(a):
         rows.append([f"{s.stem} ({where})", f"{r['startup']:.3f}", f"{r['cpu']:.3f}"]
                     + [f"{r['phases'][p]:.3f}" for p in phases])
     print(f"Slowest {len(slow)} (seconds per phase, on the loading thread: images decoded on "
-          "other threads count as the time spent waiting for them):\n")
+          "other threads count as the time spent waiting for them; bvh on a thread of its "
+          "own, at the same time as textures and bsdfs):\n")
     table(["scene", "start-up", "process CPU"] + phases, rows)
 
 

@@ -625,13 +625,71 @@ struct MeshAttrUses {
     by_bsdf: HashMap<u32, Vec<(String, Loc)>>,
 }
 
-struct Parts {
+/// A `<sensor>`: its camera, film and sampler.
+type Sensor = (Camera, Film, SamplerSettings);
+
+struct Parts<'a> {
     geometry: Vec<Geometry>,
     shape_bsdf: Vec<u32>,
     shape_light: Vec<Option<u32>>,
-    bsdfs: Vec<Bsdf>,
+    materials: Materials<'a>,
     lights: Vec<Light>,
     media: crate::media::SceneMedia,
+}
+
+/// The scene's BSDFs as the walk over the document meets them. Building one can wait for its
+/// images to be decoded (and a `roughplastic` for its tables), so the walk only gives each its
+/// index and leaves it pending, with the checks of the shapes' mesh attributes against it;
+/// [`Builder::build_pending`] builds them in document order afterwards, while the BVH is built
+/// over the finished geometry ([`Builder::bsdfs_and_bvh`]). The walk meets nothing that
+/// depends on a BSDF but its index, and an error it meets is reported after the pending work
+/// before it (the first error in document order, as when everything is built as it is met).
+#[derive(Default)]
+struct Materials<'a> {
+    /// Per index: built, or to be built by a [`Pending::Bsdf`].
+    bsdfs: Vec<Option<Bsdf>>,
+    /// In document order.
+    pending: Vec<Pending<'a>>,
+}
+
+enum Pending<'a> {
+    /// BSDF `node`, the scene's BSDF `index`.
+    Bsdf { index: u32, node: &'a Node },
+    /// The mesh attributes BSDF `bsdf` reads, checked against those of the shape declared at
+    /// `at` ([`shape_attributes`]).
+    MeshAttributes {
+        bsdf: u32,
+        shape: Option<Vec<(String, usize)>>,
+        at: &'a Loc,
+    },
+}
+
+/// The mesh attributes (name, channels) that `mesh_attribute` textures can read on a shape
+/// (an instance: on its group's member), or None when the shape is not a triangle mesh.
+fn shape_attributes(geom: &Geometry) -> Option<Vec<(String, usize)>> {
+    let geom = match geom {
+        Geometry::Instance(i) => &i.group.shapes[i.member as usize],
+        g => g,
+    };
+    match geom {
+        Geometry::Mesh(m) => Some(
+            m.attributes
+                .iter()
+                .map(|a| (a.name.clone(), a.dim))
+                .collect(),
+        ),
+        _ => None,
+    }
+}
+
+/// Primitives from which the scene's BVH is built on a thread of its own beside the BSDFs; a
+/// smaller one (about a millisecond) is built after them, without a thread.
+const BVH_BESIDE: usize = 4096;
+
+/// The scene's BVH (its phase timed on the thread that builds it).
+fn build_bvh(geometry: &[Geometry]) -> Bvh {
+    let _t = crate::timings::span(crate::timings::Phase::Bvh);
+    Bvh::build(geometry)
 }
 
 impl Builder {
@@ -653,12 +711,109 @@ impl Builder {
             geometry: vec![],
             shape_bsdf: vec![],
             shape_light: vec![],
-            bsdfs: vec![],
+            materials: Materials::default(),
             lights: vec![],
             media: Default::default(),
         };
+        let walked = self.walk(root, &mut parts);
+        let materials = std::mem::take(&mut parts.materials);
+        let (integrator, sensor) = match walked {
+            Ok(found) => found,
+            Err(e) => {
+                // the BSDFs before the error come first
+                self.build_pending(materials)?;
+                return Err(e);
+            }
+        };
+        let (bsdfs, accel) = self.bsdfs_and_bvh(materials, &parts.geometry)?;
+        root.check_unused(&[])?;
+        let Some((camera, film, sampler)) = sensor else {
+            return Err(SceneError::new(
+                Some(root.loc.clone()),
+                "the scene has no <sensor>",
+            ));
+        };
+        if parts.geometry.is_empty() && parts.lights.is_empty() {
+            return Err(SceneError::new(
+                Some(root.loc.clone()),
+                "the scene has no shapes and no emitters",
+            ));
+        }
+        let infinite_lights = parts
+            .lights
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| matches!(l, Light::Other(e) if e.is_infinite()))
+            .map(|(i, _)| i as u32)
+            .collect();
+        parts.media.check_integrator(root)?;
+        Ok(Scene {
+            geometry: parts.geometry,
+            shape_bsdf: parts.shape_bsdf,
+            shape_light: parts.shape_light,
+            bsdfs,
+            lights: parts.lights,
+            infinite_lights,
+            accel,
+            camera,
+            film,
+            spp: sampler.sample_count(sampler.sample_count),
+            seed: sampler.seed,
+            sampler,
+            integrator,
+            media: parts.media.media,
+            shape_media: parts.media.shape_media,
+            camera_medium: parts.media.camera_medium,
+            volpath: parts.media.volpath,
+            spectral: false,
+            light_colours: Vec::new(),
+        })
+    }
+
+    /// Builds the pending BSDFs ([`Builder::build_pending`]) and the BVH over `geometry`: a
+    /// large BVH on a thread of its own meanwhile (the BSDFs mostly wait for their images
+    /// and tables), a small one after them.
+    fn bsdfs_and_bvh(
+        &mut self,
+        materials: Materials,
+        geometry: &[Geometry],
+    ) -> Result<(Vec<Bsdf>, Bvh)> {
+        let primitives: usize = geometry
+            .iter()
+            .map(|g| match g {
+                Geometry::Mesh(m) => m.indices.len(),
+                _ => 1,
+            })
+            .sum();
+        if primitives < BVH_BESIDE {
+            let bsdfs = self.build_pending(materials)?;
+            return Ok((bsdfs, build_bvh(geometry)));
+        }
+        std::thread::scope(|s| {
+            let bvh = std::thread::Builder::new()
+                .name("specula-bvh".into())
+                .spawn_scoped(s, || build_bvh(geometry));
+            let bsdfs = self.build_pending(materials);
+            match bvh {
+                Ok(h) => {
+                    let accel = h.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
+                    Ok((bsdfs?, accel))
+                }
+                // (no thread: after them)
+                Err(_) => Ok((bsdfs?, build_bvh(geometry))),
+            }
+        })
+    }
+
+    /// The top level of the scene, in document order: the integrator and sensor, with the
+    /// shapes, emitters and media in `parts` and its BSDFs pending there ([`Materials`]).
+    fn walk<'a>(
+        &mut self,
+        root: &'a Node,
+        parts: &mut Parts<'a>,
+    ) -> Result<(Integrator, Option<Sensor>)> {
         let mut integrator = Integrator::default();
-        let mut sensor: Option<(Camera, Film, SamplerSettings)> = None;
+        let mut sensor = None;
         for child in &root.children {
             if let Some(id) = &child.id {
                 if child.tag != "ref" {
@@ -684,11 +839,9 @@ impl Builder {
                 }
                 "medium" => parts.media.declare(child)?,
                 "bsdf" => {
-                    let b = self.bsdf(child)?;
-                    parts.bsdfs.push(b);
-                    self.file_mesh_attributes(parts.bsdfs.len() as u32 - 1);
+                    let index = self.add_bsdf(child, &mut parts.materials)?;
                     if let Some(id) = &child.id {
-                        self.bsdf_ids.insert(id.clone(), parts.bsdfs.len() as u32 - 1);
+                        self.bsdf_ids.insert(id.clone(), index);
                     }
                 }
                 "texture" => {
@@ -697,7 +850,7 @@ impl Builder {
                         self.texture_ids.insert(id.clone(), t);
                     }
                 }
-                "shape" => self.shape(child, &mut parts)?,
+                "shape" => self.shape(child, parts)?,
                 "emitter" => {
                     let e = self.emitter(child)?;
                     parts.lights.push(Light::Other(e));
@@ -710,51 +863,7 @@ impl Builder {
                 }
             }
         }
-        root.check_unused(&[])?;
-        let Some((camera, film, sampler)) = sensor else {
-            return Err(SceneError::new(
-                Some(root.loc.clone()),
-                "the scene has no <sensor>",
-            ));
-        };
-        if parts.geometry.is_empty() && parts.lights.is_empty() {
-            return Err(SceneError::new(
-                Some(root.loc.clone()),
-                "the scene has no shapes and no emitters",
-            ));
-        }
-        let infinite_lights = parts
-            .lights
-            .iter()
-            .enumerate()
-            .filter(|(_, l)| matches!(l, Light::Other(e) if e.is_infinite()))
-            .map(|(i, _)| i as u32)
-            .collect();
-        parts.media.check_integrator(root)?;
-        let bvh = crate::timings::span(crate::timings::Phase::Bvh);
-        let accel = Bvh::build(&parts.geometry);
-        drop(bvh);
-        Ok(Scene {
-            geometry: parts.geometry,
-            shape_bsdf: parts.shape_bsdf,
-            shape_light: parts.shape_light,
-            bsdfs: parts.bsdfs,
-            lights: parts.lights,
-            infinite_lights,
-            accel,
-            camera,
-            film,
-            spp: sampler.sample_count(sampler.sample_count),
-            seed: sampler.seed,
-            sampler,
-            integrator,
-            media: parts.media.media,
-            shape_media: parts.media.shape_media,
-            camera_medium: parts.media.camera_medium,
-            volpath: parts.media.volpath,
-            spectral: false,
-            light_colours: Vec::new(),
-        })
+        Ok((integrator, sensor))
     }
 
     fn integrator(&self, n: &Node) -> Result<Integrator> {
@@ -766,7 +875,7 @@ impl Builder {
         SamplerSettings::from_node(n)
     }
 
-    fn sensor(&self, n: &Node) -> Result<(Camera, Film, SamplerSettings)> {
+    fn sensor(&self, n: &Node) -> Result<Sensor> {
         if !crate::camera::SENSORS.contains(&n.plugin_type.as_str()) {
             return Err(SceneError::new(
                 Some(n.loc.clone()),
@@ -990,6 +1099,72 @@ impl Builder {
         build_bsdf(props).map_err(bsdf_err)
     }
 
+    /// Gives BSDF `n` the scene's next index and leaves it pending in `m` ([`Materials`]), or
+    /// builds it now when one of its `<ref>`s names no texture defined so far: built later,
+    /// it could find one defined after it (then it fails here, as it would have).
+    fn add_bsdf<'a>(&mut self, n: &'a Node, m: &mut Materials<'a>) -> Result<u32> {
+        let index = m.bsdfs.len() as u32;
+        if self.refs_resolve(n) {
+            m.bsdfs.push(None);
+            m.pending.push(Pending::Bsdf { index, node: n });
+        } else {
+            m.bsdfs.push(Some(self.bsdf(n)?));
+            self.file_mesh_attributes(index);
+        }
+        Ok(index)
+    }
+
+    /// Whether every `<ref>` that [`Builder::bsdf`] looks up in building `n` (in it and in the
+    /// BSDFs nested in it) names a texture defined so far: what it reads of the builder, the
+    /// textures by id, is then the same now and later (ids are never redefined).
+    fn refs_resolve(&self, n: &Node) -> bool {
+        n.children.iter().all(|c| match c.tag.as_str() {
+            "ref" => self
+                .texture_ids
+                .contains_key(c.id.as_deref().unwrap_or_default()),
+            "bsdf" => self.refs_resolve(c),
+            _ => true,
+        })
+    }
+
+    /// Checks the mesh attributes that BSDF `bsdf` reads against shape `geom` (declared at
+    /// `at`) now, or after the BSDF is built when it is pending.
+    fn check_or_defer_mesh_attributes<'a>(
+        &self,
+        bsdf: u32,
+        geom: &Geometry,
+        at: &'a Loc,
+        m: &mut Materials<'a>,
+    ) -> Result<()> {
+        let shape = shape_attributes(geom);
+        if m.bsdfs[bsdf as usize].is_some() {
+            return self.check_mesh_attributes(bsdf, &shape, at);
+        }
+        m.pending.push(Pending::MeshAttributes { bsdf, shape, at });
+        Ok(())
+    }
+
+    /// Builds the pending BSDFs and checks in document order (the first error is the scene's);
+    /// the scene's BSDFs.
+    fn build_pending(&mut self, m: Materials) -> Result<Vec<Bsdf>> {
+        let mut bsdfs = m.bsdfs;
+        for p in m.pending {
+            match p {
+                Pending::Bsdf { index, node } => {
+                    bsdfs[index as usize] = Some(self.bsdf(node)?);
+                    self.file_mesh_attributes(index);
+                }
+                Pending::MeshAttributes { bsdf, shape, at } => {
+                    self.check_mesh_attributes(bsdf, &shape, at)?
+                }
+            }
+        }
+        Ok(bsdfs
+            .into_iter()
+            .map(|b| b.expect("every BSDF is built or pending"))
+            .collect())
+    }
+
     /// Remembers that the BSDF being built reads a mesh attribute (when `t` is a
     /// `mesh_attribute` texture).
     fn note_mesh_attribute(&self, t: &Arc<dyn Texture>, loc: &Loc) {
@@ -1013,33 +1188,34 @@ impl Builder {
         }
     }
 
-    /// Checks that shape `geom` (declared at `at`) has every attribute BSDF `bsdf` reads, with
-    /// 1 or 3 channels (Mitsuba fails at render time).
-    fn check_mesh_attributes(&self, bsdf: u32, geom: &Geometry, at: &Loc) -> Result<()> {
+    /// Checks that a shape (declared at `at`, with mesh attributes `shape` as
+    /// [`shape_attributes`] lists them) has every attribute BSDF `bsdf` reads, with 1 or 3
+    /// channels (Mitsuba fails at render time).
+    fn check_mesh_attributes(
+        &self,
+        bsdf: u32,
+        shape: &Option<Vec<(String, usize)>>,
+        at: &Loc,
+    ) -> Result<()> {
         let Some(uses) = self.attr_uses.by_bsdf.get(&bsdf) else {
             return Ok(());
         };
-        let geom = match geom {
-            Geometry::Instance(i) => &i.group.shapes[i.member as usize],
-            g => g,
-        };
         for (name, loc) in uses {
-            let msg = match geom {
-                Geometry::Mesh(m) => match m.attribute(name) {
-                    Some(a) if a.dim == 1 || a.dim == 3 => continue,
-                    Some(a) => format!(
-                        "mesh_attribute '{name}': the attribute has {} channels (1 or 3 can be read)",
-                        a.dim
+            let msg = match shape {
+                Some(attributes) => match attributes.iter().find(|(n, _)| n == name) {
+                    Some((_, 1 | 3)) => continue,
+                    Some((_, dim)) => format!(
+                        "mesh_attribute '{name}': the attribute has {dim} channels (1 or 3 can be read)"
                     ),
                     None => {
-                        let have: Vec<&str> = m.attributes.iter().map(|a| a.name.as_str()).collect();
+                        let have: Vec<&str> = attributes.iter().map(|(n, _)| n.as_str()).collect();
                         format!(
                             "mesh_attribute '{name}': the shape at {at} has no such attribute (it has: {})",
                             if have.is_empty() { "none".to_string() } else { have.join(", ") }
                         )
                     }
                 },
-                _ => format!("mesh_attribute '{name}': the shape at {at} is not a mesh"),
+                None => format!("mesh_attribute '{name}': the shape at {at} is not a mesh"),
             };
             return Err(SceneError::new(Some(loc.clone()), msg));
         }
@@ -1137,7 +1313,7 @@ impl Builder {
         Ok(radiance)
     }
 
-    fn shape(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+    fn shape<'a>(&mut self, n: &'a Node, parts: &mut Parts<'a>) -> Result<()> {
         match n.plugin_type.as_str() {
             "shapegroup" => return self.shapegroup(n, parts),
             "instance" => return self.instance(n, parts),
@@ -1213,12 +1389,7 @@ let shape_index = match n.plugin_type.as_str() {
         let mut light = None;
         for c in &n.children {
             match c.tag.as_str() {
-                "bsdf" => {
-                    let b = self.bsdf(c)?;
-                    parts.bsdfs.push(b);
-                    self.file_mesh_attributes(parts.bsdfs.len() as u32 - 1);
-                    bsdf = Some(parts.bsdfs.len() as u32 - 1);
-                }
+                "bsdf" => bsdf = Some(self.add_bsdf(c, &mut parts.materials)?),
                 "medium" => {}
                 "ref" if matches!(c.name.as_deref(), Some("interior" | "exterior")) => {}
                 "ref" => {
@@ -1259,14 +1430,15 @@ let shape_index = match n.plugin_type.as_str() {
                 // Mitsuba's default: diffuse with reflectance 0.5, or 0 on an emitting shape
                 let rho = if light.is_some() { 0.0 } else { 0.5 };
                 parts
+                    .materials
                     .bsdfs
-                    .push(Bsdf::Diffuse(specula_bsdf::models::Diffuse {
+                    .push(Some(Bsdf::Diffuse(specula_bsdf::models::Diffuse {
                         reflectance: rho.into(),
-                    }));
-                parts.bsdfs.len() as u32 - 1
+                    })));
+                parts.materials.bsdfs.len() as u32 - 1
             }
         };
-        self.check_mesh_attributes(bsdf, &geom, &n.loc)?;
+        self.check_or_defer_mesh_attributes(bsdf, &geom, &n.loc, &mut parts.materials)?;
         parts.geometry.push(geom);
         parts.shape_bsdf.push(bsdf);
         parts.shape_light.push(light);
@@ -1280,13 +1452,13 @@ impl Builder {
     /// Mitsuba's `shapegroup`: builds its shapes (in the group's space, BSDFs in the scene's
     /// list) and one BVH over them, kept under its id for `instance`s; nothing is rendered
     /// until instanced.
-    fn shapegroup(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+    fn shapegroup<'a>(&mut self, n: &'a Node, parts: &mut Parts<'a>) -> Result<()> {
         n.check_unused(&[])?;
         let mut gp = Parts {
             geometry: vec![],
             shape_bsdf: vec![],
             shape_light: vec![],
-            bsdfs: std::mem::take(&mut parts.bsdfs),
+            materials: std::mem::take(&mut parts.materials),
             lights: vec![],
             media: Default::default(),
         };
@@ -1297,7 +1469,7 @@ impl Builder {
                 break;
             }
         }
-        parts.bsdfs = std::mem::take(&mut gp.bsdfs);
+        parts.materials = std::mem::take(&mut gp.materials);
         result?;
         if !gp.lights.is_empty() {
             return Err(SceneError::new(
@@ -1313,7 +1485,7 @@ impl Builder {
     }
 
     /// One nested element of a `shapegroup`: a shape without emitters (Mitsuba's errors).
-    fn group_member(&mut self, c: &Node, gp: &mut Parts) -> Result<()> {
+    fn group_member<'a>(&mut self, c: &'a Node, gp: &mut Parts<'a>) -> Result<()> {
         let err = |m: &str| Err(SceneError::new(Some(c.loc.clone()), m));
         if c.tag != "shape" {
             return err(&format!(
@@ -1337,7 +1509,7 @@ impl Builder {
     /// `flip_normals`) concatenated into one mesh each; other shapes are kept as they are.
     /// As in Mitsuba the kept shapes come first, then the merged meshes. Same image as
     /// without `merge`; fewer, larger meshes.
-    fn merge(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+    fn merge<'a>(&mut self, n: &'a Node, parts: &mut Parts<'a>) -> Result<()> {
         n.check_unused(&[])?;
         let start = parts.geometry.len();
         for c in &n.children {
@@ -1397,7 +1569,7 @@ impl Builder {
 
     /// Mitsuba's `instance`: `<ref id=…>` to a shapegroup, placed by `to_world`. Adds one scene
     /// shape per group shape (sharing the group's BVH; see `geometry`'s module docs).
-    fn instance(&mut self, n: &Node, parts: &mut Parts) -> Result<()> {
+    fn instance<'a>(&mut self, n: &'a Node, parts: &mut Parts<'a>) -> Result<()> {
         let to_world = n.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         n.check_unused(&["to_world"])?;
         let mut group = None;
@@ -1555,5 +1727,60 @@ mod from_xml_str_tests {
                 .to_string();
             assert!(err.contains(want) && err.contains("<test>:"), "{e}: {err}");
         }
+    }
+
+    /// The BSDFs are built after the walk over the document (see [`Materials`]), yet the error
+    /// reported is the first in document order, as when each is built where it is met.
+    #[test]
+    fn errors_in_document_order_with_bsdfs_built_after_the_walk() {
+        let err = |body: &str| {
+            let text = format!(
+                "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n{body}\n</scene>"
+            );
+            match Scene::from_xml_str(&text, "t", Path::new("."), &[]) {
+                Ok(_) => panic!("loaded: {body}"),
+                Err(e) => e.to_string(),
+            }
+        };
+        let missing = r#"<bsdf type="diffuse" id="m"><texture type="bitmap" name="reflectance"><string name="filename" value="no/such/image.png"/></texture></bsdf>"#;
+        let attr = r#"<bsdf type="diffuse" id="a"><texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_color"/></texture></bsdf>"#;
+        let cases = [
+            // a failing BSDF, then errors the walk meets after it: the BSDF's
+            (format!("{missing}\n<shape type=\"cone\"/>"), "t:3:", "cannot open image"),
+            (format!("{missing}\n<shape type=\"sphere\"><ref id=\"nothing\"/></shape>"), "t:3:", "cannot open image"),
+            (format!("<shape type=\"sphere\">{missing}<emitter type=\"point\"/></shape>"), "t:3:", "cannot open image"),
+            (format!("{missing}\n<emitter type=\"nothing\"/>"), "t:3:", "cannot open image"),
+            // the walk's error before the BSDF: the walk's
+            (format!("<shape type=\"cone\"/>\n{missing}"), "t:3:", "shape 'cone' is not supported"),
+            (format!("<shape type=\"sphere\"><emitter type=\"point\"/>{missing}</shape>"), "t:3:", "only 'area' emitters"),
+            // a reference to no texture (built where it is met)
+            (
+                "<bsdf type=\"diffuse\"><ref name=\"reflectance\" id=\"tex\"/></bsdf>\n<shape type=\"cone\"/>".to_string(),
+                "t:3:",
+                "reference to undefined id 'tex'",
+            ),
+            // a shape's mesh attributes are checked where the shape is, before what follows
+            (format!("{attr}\n<shape type=\"sphere\"><ref id=\"a\"/></shape>\n<shape type=\"cone\"/>"), "t:3:", "is not a mesh"),
+            (format!("{attr}\n<shape type=\"cone\"/>\n<shape type=\"sphere\"><ref id=\"a\"/></shape>"), "t:4:", "shape 'cone' is not supported"),
+            // after the walk: the BSDFs' errors before the scene's own
+            (missing.to_string(), "t:3:", "cannot open image"),
+        ];
+        for (body, at, want) in cases {
+            let e = err(&body);
+            assert!(
+                e.starts_with(at) && e.contains(want),
+                "{body}\n  gave {e}\n  want {at} … {want}"
+            );
+        }
+        // the same without a sensor: the BSDF's error, then the scene's
+        let text = format!("<scene version=\"3.0.0\">\n{missing}\n</scene>");
+        let e = Scene::from_xml_str(&text, "t", Path::new("."), &[])
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.starts_with("t:2:") && e.contains("cannot open image"),
+            "{e}"
+        );
     }
 }

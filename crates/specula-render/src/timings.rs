@@ -26,7 +26,8 @@ pub enum Phase {
     Emitters,
     /// BSDFs (their precomputed tables, e.g. roughplastic's).
     Bsdfs,
-    /// The acceleration structure.
+    /// The acceleration structure (built on a thread of its own while the loader builds the
+    /// BSDFs and waits for their images: its time overlaps theirs).
     Bvh,
 }
 

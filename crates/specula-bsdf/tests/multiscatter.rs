@@ -306,7 +306,7 @@ fn dielectric_lobe_shape_agrees_with_the_walk() {
 /// table (`-- --ignored --nocapture`): GGX and Beckmann, α ∈ {0.1, 0.3, 0.6, 1}, η ∈ {1.16,
 /// 1.33, 1.5, 2.4} (none a node of `DIEL_ETAS`; in its coordinate cos θc, 48 %, 11 %, 59 % and
 /// 41 % of the way between two nodes; 1.16 where the lobes change fastest with η), θi ∈ {0,
-/// 45, 75, 85}° from outside and inside, 200 000 samples each (≈ 5 minutes of two cores;
+/// 45, 75, 85}° from outside and inside, 200 000 samples each (≈ 2.5 minutes of two cores;
 /// `SPECULA_SURVEY_ETAS`, comma-separated, replaces the η values); one line
 /// per case with the lobe distance (noise), the lower bound that the *separable*
 /// single-scattering model would put on any non-negative compensation lobe (`negative_deficit`;

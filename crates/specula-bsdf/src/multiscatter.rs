@@ -271,6 +271,16 @@ fn mu_node(j: usize) -> f32 {
     (t * t).max(MU_MIN)
 }
 
+/// v = (2/π) asin t for t = √μ ∈ [0, 1], the axis of [`mu_node_arc`], by Abramowitz and Stegun's
+/// 4.4.45, asin t = π/2 − √(1 − t) (a₀ + a₁t + a₂t² + a₃t³), |error| ≤ 5e-5 rad (in v, with
+/// f32 rounding, 4.3e-5 measured: 2e-3 of a node interval; test): cheaper than `asin`, which
+/// every compensated dielectric evaluation would call two to four times.
+#[inline]
+fn arc_coordinate(t: f32) -> f32 {
+    let p = 1.570_728_8 + t * (-0.212_114_4 + t * (0.074_261_0 - 0.018_729_3 * t));
+    1.0 - std::f32::consts::FRAC_2_PI * (1.0 - t).max(0.0).sqrt() * p
+}
+
 /// The μ of node `j` of a table uniform in v = (2/π) asin √μ, μ = sin²(πv/2) (the dielectric
 /// tables): like t = √μ it is proportional to √μ at grazing, where E changes fastest, and near
 /// the normal it is linear in θ, in which the albedo from inside a low-index interface has a
@@ -386,11 +396,7 @@ impl EnergyTable {
     pub fn e(&self, alpha: f32, mu: f32) -> f32 {
         let (i, wa) = self.alpha_coord(alpha);
         let t = mu.abs().min(1.0).sqrt();
-        let t = if self.arc {
-            t.asin() * std::f32::consts::FRAC_2_PI
-        } else {
-            t
-        };
+        let t = if self.arc { arc_coordinate(t) } else { t };
         let x = t * (self.res - 1) as f32;
         let j = (x as usize).min(self.res - 2);
         let wt = x - j as f32;
@@ -1451,6 +1457,22 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// `arc_coordinate` is (2/π) asin within 5e-5 on [0, 1] and reproduces the nodes.
+    #[test]
+    fn arc_coordinate_is_accurate() {
+        let mut worst = 0.0f64;
+        for k in 0..=10_000 {
+            let t = k as f64 / 10_000.0;
+            let exact = t.asin() * std::f64::consts::FRAC_2_PI;
+            worst = worst.max((arc_coordinate(t as f32) as f64 - exact).abs());
+        }
+        assert!(worst < 5e-5, "{worst}");
+        for j in 1..DIEL_MU_RES {
+            let v = arc_coordinate(mu_node_arc(j).sqrt()) * (DIEL_MU_RES - 1) as f32;
+            assert!((v - j as f32).abs() < 2e-3, "node {j}: {v}");
         }
     }
 

@@ -257,9 +257,7 @@ pub struct EnergyTable {
     /// The μ axis: [`MU_RES`] nodes uniform in t = √μ, or (`arc`) [`DIEL_MU_RES`] nodes uniform
     /// in v = (2/π) asin √μ (`mu_node_arc`).
     arc: bool,
-    /// Nodes per row.
-    res: usize,
-    /// E per α node, `res` values uniform on the μ axis.
+    /// E per α node, `res()` values uniform on the μ axis.
     e: Vec<f32>,
     /// 2∫E μ dμ of the interpolant, per α node.
     e_avg: Vec<f32>,
@@ -302,6 +300,22 @@ fn alpha_node(i: usize, n: usize) -> f32 {
     (s * s).max(MIN_ALPHA)
 }
 
+/// ∫₀¹ E(u) w(u) du of the piecewise-linear E through `row` (nodes uniform on [0, 1]), by
+/// `points`-point Gauss–Legendre on each interval.
+fn interpolant_integral(row: &[f32], points: usize, w: impl Fn(f64) -> f64) -> f64 {
+    let (x, wt) = gauss_legendre(points);
+    let h = 1.0 / (row.len() - 1) as f64;
+    let mut sum = 0.0f64;
+    for (j, pair) in row.windows(2).enumerate() {
+        for (xk, wk) in x.iter().zip(&wt) {
+            let s = 0.5 * (xk + 1.0);
+            let ev = pair[0] as f64 * (1.0 - s) + pair[1] as f64 * s;
+            sum += ev * w((j as f64 + s) * h) * wk * 0.5 * h;
+        }
+    }
+    sum
+}
+
 impl EnergyTable {
     /// Tabulate `f(μ)` for each roughness (E clamped to [0, 1]).
     fn from_rows(rows: Vec<[f64; MU_RES]>) -> Self {
@@ -316,52 +330,42 @@ impl EnergyTable {
             .flatten()
             .map(|v| v.clamp(0.0, 1.0) as f32)
             .collect();
-        let mut t = EnergyTable {
+        // 2∫E μ dμ = 2∫ E(v) sin²(πv/2) (π/2) sin(πv) dv
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        let e_avg = e
+            .chunks_exact(DIEL_MU_RES)
+            .map(|row| {
+                interpolant_integral(row, 8, |v| {
+                    2.0 * (half_pi * v).sin().powi(2) * half_pi * (2.0 * half_pi * v).sin()
+                }) as f32
+            })
+            .collect();
+        EnergyTable {
             alpha_nodes: rows.len(),
             azimuthal: false,
             arc: true,
-            res: DIEL_MU_RES,
             e,
-            e_avg: vec![0.0; rows.len()],
-        };
-        // 2∫E μ dμ = 2∫ E(v) sin²(πv/2) (π/2) sin(πv) dv, E linear on each interval
-        let (x, w) = gauss_legendre(8);
-        let h = 1.0 / (DIEL_MU_RES - 1) as f64;
-        let half_pi = std::f64::consts::FRAC_PI_2;
-        for (i, avg) in t.e_avg.iter_mut().enumerate() {
-            let row = &t.e[i * DIEL_MU_RES..][..DIEL_MU_RES];
-            let mut sum = 0.0f64;
-            for j in 0..DIEL_MU_RES - 1 {
-                for (xk, wk) in x.iter().zip(&w) {
-                    let s = 0.5 * (xk + 1.0);
-                    let v = (j as f64 + s) * h;
-                    let ev = row[j] as f64 * (1.0 - s) + row[j + 1] as f64 * s;
-                    let jac = (half_pi * v).sin().powi(2) * half_pi * (2.0 * half_pi * v).sin();
-                    sum += 2.0 * ev * jac * wk * 0.5 * h;
-                }
-            }
-            *avg = sum as f32;
+            e_avg,
         }
-        t
+    }
+
+    /// Nodes per row.
+    #[inline]
+    fn res(&self) -> usize {
+        if self.arc {
+            DIEL_MU_RES
+        } else {
+            MU_RES
+        }
     }
 
     fn from_rows_axis(rows: Vec<[f64; MU_RES]>, azimuthal: bool) -> Self {
         let mut e = Vec::with_capacity(rows.len() * MU_RES);
         let mut e_avg = Vec::with_capacity(rows.len());
-        let (x, w) = gauss_legendre(3);
         for row in &rows {
             let row: Vec<f32> = row.iter().map(|v| v.clamp(0.0, 1.0) as f32).collect();
             // 4∫₀¹ E(t) t³ dt, E linear on each segment: 3-point Gauss–Legendre is exact
-            let h = 1.0 / (MU_RES - 1) as f64;
-            let mut avg = 0.0f64;
-            for j in 0..MU_RES - 1 {
-                for (xk, wk) in x.iter().zip(&w) {
-                    let s = 0.5 * (xk + 1.0);
-                    let t = (j as f64 + s) * h;
-                    let ev = row[j] as f64 * (1.0 - s) + row[j + 1] as f64 * s;
-                    avg += 4.0 * ev * t * t * t * wk * 0.5 * h;
-                }
-            }
+            let avg = interpolant_integral(&row, 3, |t| 4.0 * t * t * t);
             e.extend_from_slice(&row);
             e_avg.push(avg as f32);
         }
@@ -369,7 +373,6 @@ impl EnergyTable {
             alpha_nodes: rows.len(),
             azimuthal,
             arc: false,
-            res: MU_RES,
             e,
             e_avg,
         }
@@ -397,11 +400,12 @@ impl EnergyTable {
         let (i, wa) = self.alpha_coord(alpha);
         let t = mu.abs().min(1.0).sqrt();
         let t = if self.arc { arc_coordinate(t) } else { t };
-        let x = t * (self.res - 1) as f32;
-        let j = (x as usize).min(self.res - 2);
+        let res = self.res();
+        let x = t * (res - 1) as f32;
+        let j = (x as usize).min(res - 2);
         let wt = x - j as f32;
         let row = |i: usize| {
-            let r = &self.e[i * self.res..];
+            let r = &self.e[i * res..];
             r[j] + (r[j + 1] - r[j]) * wt
         };
         if self.alpha_nodes == 1 || wa == 0.0 {

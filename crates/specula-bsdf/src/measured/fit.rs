@@ -573,35 +573,6 @@ fn interp_transmittance(t: &[f32; TRANSMITTANCE_RES], cos: f32) -> f32 {
 // Optimisers
 // ---------------------------------------------------------------------------------------
 
-/// Solve the small linear system `m x = b` by Gaussian elimination with partial pivoting.
-#[allow(clippy::needless_range_loop)]
-fn solve<const P: usize>(mut m: [[f64; P]; P], mut b: [f64; P]) -> Option<[f64; P]> {
-    for col in 0..P {
-        let piv = (col..P).max_by(|&x, &y| m[x][col].abs().total_cmp(&m[y][col].abs()))?;
-        if m[piv][col].abs() < 1e-300 || !m[piv][col].is_finite() {
-            return None;
-        }
-        m.swap(col, piv);
-        b.swap(col, piv);
-        for row in col + 1..P {
-            let f = m[row][col] / m[col][col];
-            for c in col..P {
-                m[row][c] -= f * m[col][c];
-            }
-            b[row] -= f * b[col];
-        }
-    }
-    let mut x = [0.0; P];
-    for row in (0..P).rev() {
-        let mut s = b[row];
-        for c in row + 1..P {
-            s -= m[row][c] * x[c];
-        }
-        x[row] = s / m[row][row];
-    }
-    x.iter().all(|v| v.is_finite()).then_some(x)
-}
-
 /// Bounded Levenberg–Marquardt: minimises Σ r² given a function returning the cost and the
 /// normal equations (JᵀJ, Jᵀr). Parameters at a bound whose gradient points outwards are held
 /// there (an active set); other steps are clipped to the box. Returns the parameters and cost.
@@ -645,7 +616,7 @@ pub fn levenberg_marquardt<const P: usize>(
                     b[i] = 0.0;
                 }
             }
-            let Some(delta) = solve(m, b) else {
+            let Some(delta) = crate::math::solve(m, b) else {
                 lambda *= 10.0;
                 continue;
             };

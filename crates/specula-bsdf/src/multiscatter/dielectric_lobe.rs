@@ -91,7 +91,10 @@
 //! incidence); the coat adds the rest, c_o(μ)(1 − share(μ)), to its transmittance into the
 //! base, so the base's energy balance stays exact.
 
-use super::lobe::{azimuth, decode_symmetric, encode_symmetric, KC_BLEND, LOBE_MU, LOBE_PHI};
+use super::lobe::{
+    azimuth, decode_symmetric, encode_symmetric, kind_index, symmetrise, KC_BLEND, LOBE_MU,
+    LOBE_PHI,
+};
 use super::{alpha_node, gauss_legendre, parallel_rows, DielectricEnergy};
 use crate::microfacet::MicrofacetType;
 use glam::{DVec3, Vec2, Vec3};
@@ -262,24 +265,10 @@ fn walk_joints(
 /// The joint made symmetric (the mean of it and its transpose, per node), with the relative
 /// asymmetry it had per node.
 fn symmetrised(mut joint: Vec<f64>) -> (Vec<f64>, Vec<f64>) {
-    let mut asym = vec![0.0f64; joint.len() / DSLICE];
-    for (node, a) in asym.iter_mut().enumerate() {
-        let s = &mut joint[node * DSLICE..][..DSLICE];
-        let (mut diff, mut total) = (0.0, 0.0);
-        for r in 0..NR {
-            for q in r..NR {
-                for c in 0..LOBE_PHI {
-                    let (p, t) = (r * DROW + q * LOBE_PHI + c, q * DROW + r * LOBE_PHI + c);
-                    let m = 0.5 * (s[p] + s[t]);
-                    diff += (s[p] - s[t]).abs();
-                    total += s[p].abs() + if p != t { s[t].abs() } else { 0.0 };
-                    s[p] = m;
-                    s[t] = m;
-                }
-            }
-        }
-        *a = if total > 0.0 { 0.5 * diff / total } else { 0.0 };
-    }
+    let asym = joint
+        .chunks_exact_mut(DSLICE)
+        .map(|node| symmetrise(node, NR))
+        .collect();
     (joint, asym)
 }
 
@@ -338,10 +327,7 @@ fn decode_dielectric_table(bytes: &[u8], kind: MicrofacetType) -> Option<Vec<f32
     if bytes.len() != MAGIC.len() + 2 * per || &bytes[..MAGIC.len()] != MAGIC {
         return None;
     }
-    let k = match kind {
-        MicrofacetType::Ggx => 0,
-        MicrofacetType::Beckmann => 1,
-    };
+    let k = kind_index(kind);
     let mut p = MAGIC.len() + k * per;
     let mut joint = vec![0.0f32; MEASURED * DSLICE];
     let mut node64 = vec![0.0f64; DSLICE];
@@ -406,10 +392,7 @@ pub fn committed_dielectric_node_record(
     if DIELECTRIC_DATA.len() != MAGIC.len() + 2 * per || node >= MEASURED {
         return None;
     }
-    let k = match kind {
-        MicrofacetType::Ggx => 0,
-        MicrofacetType::Beckmann => 1,
-    };
+    let k = kind_index(kind);
     let start = MAGIC.len() + k * per + node * (4 + 2 * TRI);
     DIELECTRIC_DATA.get(start..start + 4 + 2 * TRI)
 }
@@ -422,10 +405,7 @@ fn measured_joints(kind: MicrofacetType, correlated: bool) -> Option<&'static [f
     if !correlated {
         return None;
     }
-    let k = match kind {
-        MicrofacetType::Ggx => 0,
-        MicrofacetType::Beckmann => 1,
-    };
+    let k = kind_index(kind);
     CELLS[k]
         .get_or_init(|| decode_dielectric_table(DIELECTRIC_DATA, kind))
         .as_deref()
@@ -483,43 +463,28 @@ fn interpolated_joint(j: &[f32], eta: f32, alpha: f32, out: &mut [f64]) {
 /// symmetric), `u_inv` to Δφ.
 fn histopolate(joint: &mut [f64], w_inv: &[[[f64; 16]; 16]; 2], u_inv: &[[f64; 16]; 16]) {
     const { assert!(LOBE_MU == 16 && LOBE_PHI == 16) };
-    let mut buf = [0.0f64; 16];
-    let mut apply = |m: &[[f64; 16]; 16], get: &dyn Fn(usize) -> usize, joint: &mut [f64]| {
-        for (k, b) in buf.iter_mut().enumerate() {
-            *b = m[k]
-                .iter()
-                .enumerate()
-                .map(|(j, v)| v * joint[get(j)])
-                .sum();
-        }
-        for (k, b) in buf.iter().enumerate() {
-            joint[get(k)] = *b;
+    // x ← m x for the 16 values joint[base + j stride]
+    let apply = |m: &[[f64; 16]; 16], base: usize, stride: usize, joint: &mut [f64]| {
+        let x: [f64; 16] = std::array::from_fn(|j| joint[base + j * stride]);
+        for (k, row) in m.iter().enumerate() {
+            joint[base + k * stride] = row.iter().zip(&x).map(|(v, x)| v * x).sum();
         }
     };
     // every row index first, then every column index
-    for rows in [true, false] {
-        for (side, m) in w_inv.iter().enumerate() {
-            for s in 0..NR {
-                for c in 0..LOBE_PHI {
-                    if rows {
-                        apply(
-                            m,
-                            &|j| (side * LOBE_MU + j) * DROW + s * LOBE_PHI + c,
-                            joint,
-                        );
-                    } else {
-                        apply(
-                            m,
-                            &|j| s * DROW + (side * LOBE_MU + j) * LOBE_PHI + c,
-                            joint,
-                        );
-                    }
-                }
+    for (side, m) in w_inv.iter().enumerate() {
+        for col in 0..DROW {
+            apply(m, side * LOBE_MU * DROW + col, DROW, joint);
+        }
+    }
+    for (side, m) in w_inv.iter().enumerate() {
+        for r in 0..NR {
+            for c in 0..LOBE_PHI {
+                apply(m, r * DROW + side * LOBE_MU * LOBE_PHI + c, LOBE_PHI, joint);
             }
         }
     }
     for rs in 0..NR * NR {
-        apply(u_inv, &|j| rs * LOBE_PHI + j, joint);
+        apply(u_inv, rs * LOBE_PHI, 1, joint);
     }
 }
 
@@ -554,51 +519,32 @@ fn sym_scaling(k: &[f64], n: usize, target: &[f64]) -> Vec<f64> {
     d
 }
 
-/// The inverse of a 16 × 16 matrix by Gauss–Jordan elimination with partial pivoting; a row
-/// that is (relatively) zero, with its column, is left out: that unknown gets 0.
+/// The inverse of a 16 × 16 matrix, a column per unit vector by [`crate::math::solve`]; a row
+/// that is (relatively) zero, with its column, is left out: that unknown gets 0 and that bin's
+/// value is ignored (a zero matrix if the rest is singular).
 fn invert16(mut a: [[f64; 16]; 16]) -> [[f64; 16]; 16] {
     let scale = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
-    let mut inv = [[0.0f64; 16]; 16];
     let live: Vec<bool> = a
         .iter()
         .map(|row| row.iter().any(|v| v.abs() > 1e-13 * scale))
         .collect();
-    for k in 0..16 {
-        inv[k][k] = 1.0;
-        if !live[k] {
-            // the unknown k is 0: an identity row and a zero column elsewhere
-            for (r, row) in a.iter_mut().enumerate() {
-                row[k] = if r == k { 1.0 } else { 0.0 };
-            }
-            a[k] = [0.0; 16];
-            a[k][k] = 1.0;
-            inv[k][k] = 0.0;
+    for k in (0..16).filter(|&k| !live[k]) {
+        // the unknown k is 0: an identity row, and a zero column elsewhere
+        for (r, row) in a.iter_mut().enumerate() {
+            row[k] = if r == k { 1.0 } else { 0.0 };
         }
+        a[k] = [0.0; 16];
+        a[k][k] = 1.0;
     }
-    for col in 0..16 {
-        let p = (col..16)
-            .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
-            .unwrap_or(col);
-        a.swap(col, p);
-        inv.swap(col, p);
-        let d = a[col][col];
-        if d.abs() <= 1e-300 {
+    let mut inv = [[0.0f64; 16]; 16];
+    for k in (0..16).filter(|&k| live[k]) {
+        let mut unit = [0.0f64; 16];
+        unit[k] = 1.0;
+        let Some(col) = crate::math::solve(a, unit) else {
             return [[0.0; 16]; 16];
-        }
-        for j in 0..16 {
-            a[col][j] /= d;
-            inv[col][j] /= d;
-        }
-        for r in 0..16 {
-            if r != col {
-                let f = a[r][col];
-                if f != 0.0 {
-                    for j in 0..16 {
-                        a[r][j] -= f * a[col][j];
-                        inv[r][j] -= f * inv[col][j];
-                    }
-                }
-            }
+        };
+        for (row, v) in inv.iter_mut().zip(col) {
+            row[k] = v;
         }
     }
     inv
@@ -906,13 +852,9 @@ impl DielectricLobe {
         // (Ā_c = 2 × the bin's width); the μ weights differ from the bins' by a factor per row,
         // which the symmetric scaling below finds itself
         let (gx, gw) = gauss_legendre(12);
-        let x_edges: [f64; 17] = std::array::from_fn(|k| {
-            let (lo, hi) = mu_edges(k.min(LOBE_MU - 1));
-            if k == LOBE_MU {
-                hi * hi
-            } else {
-                lo * lo
-            }
+        let x_edges: [f64; 17] = std::array::from_fn(|k| match k {
+            LOBE_MU => 1.0,
+            _ => mu_edges(k).0.powi(2),
         });
         let phi_edges: [f64; 17] = std::array::from_fn(phi_edge);
         let u_inv = hats.phi.histopolation(&phi_edges, &gx, &gw, |_| 2.0);
@@ -1361,6 +1303,36 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// `invert16` inverts (A A⁻¹ = I within 1e-12 for a diagonally dominant tridiagonal A, the
+    /// shape of the histopolation matrices), and a zero row gives its unknown and its bin 0.
+    #[test]
+    fn invert16_inverts_and_drops_dead_rows() {
+        let mut a = [[0.0f64; 16]; 16];
+        for (k, row) in a.iter_mut().enumerate() {
+            row[k] = 0.75 + 0.01 * k as f64;
+            if k > 0 {
+                row[k - 1] = 0.125;
+            }
+            if k < 15 {
+                row[k + 1] = 0.1;
+            }
+        }
+        let inv = invert16(a);
+        for (r, row) in a.iter().enumerate() {
+            for c in 0..16 {
+                let v: f64 = row.iter().zip(&inv).map(|(x, i)| x * i[c]).sum();
+                assert!(
+                    (v - if r == c { 1.0 } else { 0.0 }).abs() < 1e-12,
+                    "{r} {c}: {v}"
+                );
+            }
+        }
+        a[5] = [0.0; 16];
+        let inv = invert16(a);
+        assert!((0..16).all(|k| inv[5][k] == 0.0 && inv[k][5] == 0.0));
+        assert!(inv[4][4] != 0.0 && inv.iter().flatten().all(|v| v.is_finite()));
     }
 
     /// The committed data is the output of Specula's own generator: measured nodes of both

@@ -126,7 +126,7 @@ pub fn lobe_joint_from_walk(kind: MicrofacetType, walks: usize) -> (Vec<f64>, Ve
         joint[a * SLICE + i * ROW..][..ROW].copy_from_slice(h);
     }
     for a in 1..LOBE_ALPHAS {
-        asym[a] = symmetrise(&mut joint[a * SLICE..][..SLICE]);
+        asym[a] = symmetrise(&mut joint[a * SLICE..][..SLICE], LOBE_MU);
     }
     (joint, asym)
 }
@@ -140,7 +140,7 @@ pub const LOBE_WALKS: usize = 400_000;
 /// compares them with the committed bytes).
 pub fn lobe_node_record(kind: MicrofacetType, a: usize, walks: usize) -> Vec<u8> {
     let mut joint: Vec<f64> = lobe_rows(kind, a..a + 1, walks).concat();
-    symmetrise(&mut joint);
+    symmetrise(&mut joint, LOBE_MU);
     let mut out = Vec::new();
     encode_symmetric(&mut out, &joint, LOBE_MU);
     out
@@ -156,17 +156,17 @@ pub fn committed_lobe_node_record(kind: MicrofacetType, a: usize) -> Option<&'st
     LOBE_DATA.get(start..start + 4 + 2 * TRI)
 }
 
-/// Makes one node's joint symmetric (the mean of it and its transpose); returns the relative
-/// asymmetry it had.
-fn symmetrise(s: &mut [f64]) -> f64 {
+/// Makes one node's joint (`n` × `n` rows of [`LOBE_PHI`] values) symmetric, the mean of it and
+/// its transpose; returns the relative asymmetry it had, Σ|J − Jᵀ| / 2Σ|J|.
+pub(super) fn symmetrise(s: &mut [f64], n: usize) -> f64 {
     let (mut diff, mut total) = (0.0, 0.0);
-    for i in 0..LOBE_MU {
-        for b in i..LOBE_MU {
+    for i in 0..n {
+        for b in i..n {
             for c in 0..LOBE_PHI {
-                let (p, q) = (i * ROW + b * LOBE_PHI + c, b * ROW + i * LOBE_PHI + c);
+                let (p, q) = ((i * n + b) * LOBE_PHI + c, (b * n + i) * LOBE_PHI + c);
                 let m = 0.5 * (s[p] + s[q]);
                 diff += (s[p] - s[q]).abs();
-                total += s[p] + if p != q { s[q] } else { 0.0 };
+                total += s[p].abs() + if p != q { s[q].abs() } else { 0.0 };
                 s[p] = m;
                 s[q] = m;
             }
@@ -231,7 +231,7 @@ const MAGIC: &[u8; 8] = b"SPMSLOB1";
 /// Values of a node's upper triangle.
 const TRI: usize = LOBE_MU * (LOBE_MU + 1) / 2 * LOBE_PHI;
 
-fn kind_index(kind: MicrofacetType) -> usize {
+pub(super) fn kind_index(kind: MicrofacetType) -> usize {
     match kind {
         MicrofacetType::Ggx => 0,
         MicrofacetType::Beckmann => 1,

@@ -66,9 +66,15 @@
 //! own c, and likewise along Δφ). Taking each bin's mean as its node's value instead smoothed
 //! the lobe: Beckmann α = 1 at η = 1.14 (a node) seen from inside at 85° lost 0.032 of its
 //! energy at μo 0.08–0.17 to μo 0.17–0.33, 0.037 above the noise; with histopolation 0.013.
-//! In the hats' weights, J_rs = V_rs ν_r ν_s A_c, the joint is then scaled to the material's
-//! total deficit and blended with 1 % of Kulla–Conty's lobes (negative values of V, where the
-//! solve undershoots next to a peak, become 0), then scaled symmetrically, J_rs ← d_r J_rs d_s
+//! In the hats' weights, J_rs = V_rs ν_r ν_s A_c. Where the solve undershoots next to a peak V
+//! is negative: such values become 0, and each row's parts on the two sides are scaled back
+//! to the sums they had before (`block_scaling`: J_rs ← f_r,side(s) J_rs f_s,side(r), which
+//! keeps J symmetric). Clamping alone put the negative mass back into the small blocks: the
+//! reflected part of grazing incidences on rough low-index interfaces rose by a quarter to a
+//! third (GGX α = 1, η = 1.19, 85°: 0.0157 of the deficit, the walk's 0.0113; restored:
+//! 0.0112), so `roughplastic`'s coat reflected up to 6.5 % more than the walk at 85° between
+//! the η nodes (GGX α = 1, η = 1.2; now within 1.7 % in the cases tried). The joint is then scaled to the material's
+//! total deficit and blended with 1 % of Kulla–Conty's lobes, then scaled symmetrically, J_rs ← d_r J_rs d_s
 //! (Sinkhorn iteration), until every row r holds the deficit ν_r = ∫ h_r(μ²) c(μ) μ dμ of its
 //! node's hat h_r (times η² for the inside rows) — from this material's own tables — and
 //! M = J / (ν_r ν_s A_c), A_c = 2 ∫ h_c(Δφ) dΔφ. Each node's row then integrates to 1
@@ -519,6 +525,42 @@ fn sym_scaling(k: &[f64], n: usize, target: &[f64]) -> Vec<f64> {
     d
 }
 
+/// Scaling of a symmetric non-negative matrix `k` (NR × NR, the Δφ cells summed) by one factor
+/// per row node and side: entry (r, s) is multiplied by f[2r + side(s)] f[2s + side(r)] (side 0
+/// outside, 1 inside), so the matrix stays symmetric, until row r's part on side b sums to
+/// `target[2r + b]` (Sinkhorn's iteration per block: the diagonal blocks are scaled
+/// symmetrically, the crossing block by its rows and columns, whose targets have the same
+/// total when they come from a symmetric matrix). Parts with a zero target get factor 0.
+fn block_scaling(k: &[f64], target: &[f64]) -> Vec<f64> {
+    let side = |r: usize| r / LOBE_MU;
+    let mut f: Vec<f64> = target
+        .iter()
+        .map(|&t| if t <= 1e-14 { 0.0 } else { 1.0 })
+        .collect();
+    for _ in 0..2000 {
+        let mut worst = 0.0f64;
+        for rb in 0..2 * NR {
+            let (r, b) = (rb / 2, rb % 2);
+            if f[rb] == 0.0 {
+                continue;
+            }
+            let part: f64 = (b * LOBE_MU..(b + 1) * LOBE_MU)
+                .map(|s| k[r * NR + s] * f[2 * s + side(r)])
+                .sum();
+            if part <= 0.0 {
+                continue;
+            }
+            let ratio = target[rb] / (f[rb] * part);
+            worst = worst.max((ratio - 1.0).abs());
+            f[rb] *= ratio.sqrt();
+        }
+        if worst < 1e-9 {
+            break;
+        }
+    }
+    f
+}
+
 /// The inverse of a 16 × 16 matrix, a column per unit vector by [`crate::math::solve`]; a row
 /// that is (relatively) zero, with its column, is left out: that unknown gets 0 and that bin's
 /// value is ignored (a zero matrix if the rest is singular).
@@ -930,6 +972,39 @@ impl DielectricLobe {
                         for (cell, a) in cells.iter_mut().zip(&a_c) {
                             *cell = sum * a / a_total;
                         }
+                    }
+                }
+            }
+            // the solve undershoots next to a peak: negative values become 0, and each row's
+            // part on either side is scaled back to what it held before (one factor per row
+            // node and side, applied to both indices, so M stays symmetric). Clamping alone
+            // added the negative mass back to the small blocks: it raised the reflected share
+            // of grazing incidences on rough low-index interfaces by a quarter (GGX α = 1,
+            // η = 1.19, 85°: 0.0157 of the deficit against the walk's 0.0115)
+            let block_sum = |j: &[f64], r: usize, side: usize, f: fn(f64) -> f64| -> f64 {
+                j[r * DROW + side * LOBE_MU * LOBE_PHI..][..LOBE_MU * LOBE_PHI]
+                    .iter()
+                    .map(|&v| f(v))
+                    .sum()
+            };
+            let held: Vec<f64> = (0..2 * NR)
+                .map(|rb| block_sum(&joint, rb / 2, rb % 2, |v| v).max(0.0))
+                .collect();
+            let clamped: Vec<f64> = (0..NR * NR)
+                .map(|rs| {
+                    let (r, s) = (rs / NR, rs % NR);
+                    joint[r * DROW + s * LOBE_PHI..][..LOBE_PHI]
+                        .iter()
+                        .map(|v| v.max(0.0))
+                        .sum()
+                })
+                .collect();
+            let f = block_scaling(&clamped, &held);
+            for r in 0..NR {
+                for t in 0..NR {
+                    let k = f[2 * r + t / LOBE_MU] * f[2 * t + r / LOBE_MU];
+                    for cell in &mut joint[r * DROW + t * LOBE_PHI..][..LOBE_PHI] {
+                        *cell = cell.max(0.0) * k;
                     }
                 }
             }

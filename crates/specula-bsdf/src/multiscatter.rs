@@ -1195,15 +1195,19 @@ impl FresnelFit {
     /// The fit of a conductor's Fresnel reflectance (complex index η + ik) times `reflectance`.
     pub fn conductor(eta: Spectrum, k: Spectrum, reflectance: Spectrum) -> Self {
         let p = fit_projection();
-        let mut c = [Spectrum::ZERO; NB];
-        for (i, &x) in p.nodes.iter().enumerate() {
-            let f = crate::fresnel::fresnel_conductor_rgb(x, eta, k);
+        let mut c = [[0.0f32; 3]; NB];
+        for ch in 0..3 {
+            // the reflectance at the nodes, a loop the compiler vectorises
+            let mut f = [0.0f32; FIT_NODES];
+            for (fi, &x) in f.iter_mut().zip(&p.nodes) {
+                *fi = crate::fresnel::fresnel_conductor(x, eta[ch], k[ch]);
+            }
             for (ck, row) in c.iter_mut().zip(&p.rows) {
-                *ck += f * row[i];
+                ck[ch] = row.iter().zip(&f).map(|(r, f)| r * f).sum::<f32>() * reflectance[ch];
             }
         }
         FresnelFit {
-            c: c.map(|ck| ck * reflectance),
+            c: c.map(|[r, g, b]| Spectrum::new(r, g, b)),
         }
     }
     /// Schlick's Fresnel of normal reflectance `r0` (exactly representable).

@@ -415,6 +415,14 @@ impl Emitter {
         }
     }
 
+    /// [`Emitter::eval_direction`] and [`Emitter::pdf_direction`] together.
+    pub fn eval_pdf_direction(&self, d_world: Vec3) -> (Rgb, f32) {
+        match self {
+            Emitter::Envmap(e) => e.eval_pdf(d_world),
+            _ => (self.eval_direction(d_world), self.pdf_direction(d_world)),
+        }
+    }
+
     /// Solid-angle density with which `sample_direction` produces `d` (0 for delta lights).
     pub fn pdf_direction(&self, d_world: Vec3) -> f32 {
         match self {
@@ -438,11 +446,13 @@ fn sample_cdf(cdf: &[f32], u: f32) -> (usize, f32) {
     bin_offset(cdf, idx, u)
 }
 
-/// Cutpoint guide tables (Chen & Asau's method) for sampling a CDF: with m buckets,
-/// entry k counts the CDF's interior entries that are ≤ k/m, so the bin holding u lies
-/// between entries k and k + 1 for the bucket k with k/m ≤ u < (k + 1)/m. The search is then
-/// over a few entries instead of the whole CDF; it returns exactly what the binary search over
-/// the whole CDF returns (same bins, same images).
+/// Cutpoint guide tables (Chen & Asau's method) for sampling a CDF: with m buckets, a value x
+/// falls in bucket b(x) = min(⌊x·m⌋, m − 1) (the same f32 operations when the table is built
+/// and when it is read, and non-decreasing in x), and entry k counts the CDF's interior entries
+/// in buckets below k. The interior entries before entry b(u) are then < u and those from entry
+/// b(u) + 1 on are > u, so the bin holding u is found among the few entries in u's bucket
+/// instead of over the whole CDF, with no division; it returns exactly what the binary search
+/// over the whole CDF returns (same bins, same images).
 mod guide {
     /// Buckets for a CDF of `n` bins: about four bins per bucket.
     #[inline]
@@ -450,9 +460,11 @@ mod guide {
         n.div_ceil(4).max(1)
     }
 
+    /// The bucket of `x` among `m` (`m` as f32 too).
     #[inline]
-    fn threshold(k: usize, m: usize) -> f32 {
-        k as f32 / m as f32
+    fn bucket(x: f32, m: usize, mf: f32) -> usize {
+        // `as usize` saturates: negative x gives 0
+        ((x * mf) as usize).min(m - 1)
     }
 
     /// Appends the guide (`buckets(n) + 1` entries) of a CDF of `n + 1` non-decreasing
@@ -460,10 +472,10 @@ mod guide {
     pub fn build(cdf: &[f32], out: &mut Vec<u32>) {
         let inner = &cdf[1..cdf.len() - 1];
         let m = buckets(cdf.len() - 1);
+        let mf = m as f32;
         let mut c = 0;
         for k in 0..m {
-            let t = threshold(k, m);
-            while c < inner.len() && inner[c] <= t {
+            while c < inner.len() && bucket(inner[c], m, mf) < k {
                 c += 1;
             }
             out.push(c as u32);
@@ -476,14 +488,7 @@ mod guide {
     #[inline]
     pub fn sample(cdf: &[f32], start: &[u32], u: f32) -> (usize, f32) {
         let m = start.len() - 1;
-        let mut k = ((u * m as f32) as usize).min(m - 1);
-        // bracket u exactly with the thresholds the table was built with (u·m rounds)
-        while k > 0 && threshold(k, m) > u {
-            k -= 1;
-        }
-        while k + 1 < m && threshold(k + 1, m) <= u {
-            k += 1;
-        }
+        let k = bucket(u, m, m as f32);
         let (lo, hi) = (start[k] as usize, start[k + 1] as usize);
         let idx = lo + cdf[1 + lo..1 + hi].partition_point(|&c| c <= u);
         super::bin_offset(cdf, idx, u)
@@ -720,13 +725,28 @@ impl Envmap {
     /// The sampling cell holding local direction `d`.
     #[inline]
     fn cell(&self, d: Vec3) -> usize {
+        self.cell_of_uv(Self::direction_to_uv(d))
+    }
+
+    /// The sampling cell holding lat-long `uv`.
+    #[inline]
+    fn cell_of_uv(&self, uv: Vec2) -> usize {
         let (w, h) = (self.width, self.height);
-        let uv = Self::direction_to_uv(d);
         let mut u = uv.x - 0.5 / w as f32;
         u -= u.floor();
         let i = ((u * w as f32) as usize).min(w - 1);
         let j = ((uv.y * (h - 1) as f32) as usize).min(h - 2);
         j * w + i
+    }
+
+    /// [`Envmap::eval`] and [`Envmap::pdf`] together (one lat-long conversion).
+    pub fn eval_pdf(&self, d_world: Vec3) -> (Rgb, f32) {
+        let d = self.local(d_world);
+        if d == Vec3::ZERO {
+            return (Rgb::ZERO, 0.0);
+        }
+        let uv = Self::direction_to_uv(d);
+        (self.eval_uv(uv), self.cell_pdf[self.cell_of_uv(uv)])
     }
 
     /// Solid-angle pdf of [`Envmap::sample`].
@@ -1173,7 +1193,7 @@ mod tests {
             super::guide::build(&cdf, &mut g);
             assert_eq!(g.len(), super::guide::buckets(w.len()) + 1);
             let mut us: Vec<f32> = (0..2000).map(|_| rnd()).collect();
-            // the CDF's own values, the bucket thresholds and their neighbours
+            // the CDF's own values, the bucket edges and their neighbours
             for &c in &cdf {
                 us.extend([
                     c,
@@ -1359,6 +1379,11 @@ mod tests {
             assert!((s.wi.length() - 1.0).abs() < 1e-5);
             let p = e.pdf_direction(s.wi);
             let l = e.eval_direction(s.wi);
+            let (l2, p2) = e.eval_pdf_direction(s.wi);
+            assert_eq!(
+                (l.0.map(f32::to_bits), p.to_bits()),
+                (l2.0.map(f32::to_bits), p2.to_bits())
+            );
             if (p - s.pdf).abs() > 1e-3 * s.pdf || !close(l, s.radiance.0, 1e-3) {
                 mismatched += 1;
             }

@@ -740,14 +740,17 @@ impl Scene {
         let mut out = Rgb::ZERO;
         for &li in &self.infinite_lights {
             if let Light::Other(e) = &self.lights[li as usize] {
-                let le = e.eval_direction(d);
+                let (le, pdf) = match bsdf_pdf {
+                    Some(_) => e.eval_pdf_direction(d),
+                    None => (e.eval_direction(d), 0.0),
+                };
                 if le.is_black() {
                     continue;
                 }
                 let le = self.infinite_emission_of(li, e, d, le, wl);
                 let w = match bsdf_pdf {
                     None => 1.0,
-                    Some(p) => mis(p, e.pdf_direction(d) * self.light_select_pdf() * light_frac),
+                    Some(p) => mis(p, pdf * self.light_select_pdf() * light_frac),
                 };
                 out += le * w;
             }

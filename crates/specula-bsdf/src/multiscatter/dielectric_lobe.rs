@@ -98,8 +98,8 @@
 //! base, so the base's energy balance stays exact.
 
 use super::lobe::{
-    azimuth, decode_symmetric, encode_symmetric, kind_index, symmetrise, KC_BLEND, LOBE_MU,
-    LOBE_PHI,
+    azimuth, damped_scaling, decode_symmetric, encode_symmetric, kind_index, symmetrise, KC_BLEND,
+    LOBE_MU, LOBE_PHI,
 };
 use super::{alpha_node, gauss_legendre, parallel_rows, DielectricEnergy};
 use crate::microfacet::MicrofacetType;
@@ -494,35 +494,13 @@ fn histopolate(joint: &mut [f64], w_inv: &[[[f64; 16]; 16]; 2], u_inv: &[[f64; 1
     }
 }
 
-/// Symmetric scaling of a symmetric non-negative matrix `k` (n × n, row sums over the last
-/// index already taken) to row sums `target`: the d with d_r Σ_s k_rs d_s = target_r
-/// (rows with a zero target get d = 0).
-fn sym_scaling(k: &[f64], n: usize, target: &[f64]) -> Vec<f64> {
-    let mut d = vec![1.0f64; n];
-    for r in 0..n {
-        if target[r] <= 1e-14 {
-            d[r] = 0.0;
-        }
-    }
-    for _ in 0..5000 {
-        let mut worst = 0.0f64;
-        for r in 0..n {
-            if d[r] == 0.0 {
-                continue;
-            }
-            let row: f64 = (0..n).map(|s| k[r * n + s] * d[s]).sum();
-            if row <= 0.0 {
-                continue;
-            }
-            let ratio = target[r] / (d[r] * row);
-            worst = worst.max((ratio - 1.0).abs());
-            d[r] *= ratio.sqrt();
-        }
-        if worst < 1e-10 {
-            break;
-        }
-    }
-    d
+/// Symmetric scaling of a symmetric non-negative matrix `k` (NR × NR, the Δφ cells summed,
+/// [`cell_sums`]) to row sums `target`: the d with d_r Σ_s k_rs d_s = target_r (rows with a
+/// zero target get d = 0).
+fn sym_scaling(k: &[f64], target: &[f64]) -> Vec<f64> {
+    damped_scaling(target, 5000, 1e-10, |r, d| {
+        (0..NR).map(|s| k[r * NR + s] * d[s]).sum()
+    })
 }
 
 /// Scaling of a symmetric non-negative matrix `k` (NR × NR, the Δφ cells summed) by one factor
@@ -532,33 +510,22 @@ fn sym_scaling(k: &[f64], n: usize, target: &[f64]) -> Vec<f64> {
 /// symmetrically, the crossing block by its rows and columns, whose targets have the same
 /// total when they come from a symmetric matrix). Parts with a zero target get factor 0.
 fn block_scaling(k: &[f64], target: &[f64]) -> Vec<f64> {
-    let side = |r: usize| r / LOBE_MU;
-    let mut f: Vec<f64> = target
-        .iter()
-        .map(|&t| if t <= 1e-14 { 0.0 } else { 1.0 })
-        .collect();
-    for _ in 0..2000 {
-        let mut worst = 0.0f64;
-        for rb in 0..2 * NR {
-            let (r, b) = (rb / 2, rb % 2);
-            if f[rb] == 0.0 {
-                continue;
-            }
-            let part: f64 = (b * LOBE_MU..(b + 1) * LOBE_MU)
-                .map(|s| k[r * NR + s] * f[2 * s + side(r)])
-                .sum();
-            if part <= 0.0 {
-                continue;
-            }
-            let ratio = target[rb] / (f[rb] * part);
-            worst = worst.max((ratio - 1.0).abs());
-            f[rb] *= ratio.sqrt();
-        }
-        if worst < 1e-9 {
-            break;
-        }
-    }
-    f
+    damped_scaling(target, 2000, 1e-9, |rb, f| {
+        let (r, b) = (rb / 2, rb % 2);
+        (b * LOBE_MU..(b + 1) * LOBE_MU)
+            .map(|s| k[r * NR + s] * f[2 * s + r / LOBE_MU])
+            .sum()
+    })
+}
+
+/// Per (row node, column node): the sum of a joint's Δφ cells (NR × NR values).
+fn cell_sums(joint: &[f64]) -> Vec<f64> {
+    (0..NR * NR)
+        .map(|rs| {
+            let (r, s) = (rs / NR, rs % NR);
+            joint[r * DROW + s * LOBE_PHI..][..LOBE_PHI].iter().sum()
+        })
+        .collect()
 }
 
 /// The inverse of a 16 × 16 matrix, a column per unit vector by [`crate::math::solve`]; a row
@@ -981,30 +948,22 @@ impl DielectricLobe {
             // added the negative mass back to the small blocks: it raised the reflected share
             // of grazing incidences on rough low-index interfaces by a quarter (GGX α = 1,
             // η = 1.19, 85°: 0.0157 of the deficit against the walk's 0.0115)
-            let block_sum = |j: &[f64], r: usize, side: usize, f: fn(f64) -> f64| -> f64 {
-                j[r * DROW + side * LOBE_MU * LOBE_PHI..][..LOBE_MU * LOBE_PHI]
-                    .iter()
-                    .map(|&v| f(v))
-                    .sum()
-            };
             let held: Vec<f64> = (0..2 * NR)
-                .map(|rb| block_sum(&joint, rb / 2, rb % 2, |v| v).max(0.0))
-                .collect();
-            let clamped: Vec<f64> = (0..NR * NR)
-                .map(|rs| {
-                    let (r, s) = (rs / NR, rs % NR);
-                    joint[r * DROW + s * LOBE_PHI..][..LOBE_PHI]
+                .map(|rb| {
+                    let (r, side) = (rb / 2, rb % 2);
+                    joint[r * DROW + side * LOBE_MU * LOBE_PHI..][..LOBE_MU * LOBE_PHI]
                         .iter()
-                        .map(|v| v.max(0.0))
-                        .sum()
+                        .sum::<f64>()
+                        .max(0.0)
                 })
                 .collect();
-            let f = block_scaling(&clamped, &held);
+            joint.iter_mut().for_each(|v| *v = v.max(0.0));
+            let f = block_scaling(&cell_sums(&joint), &held);
             for r in 0..NR {
                 for t in 0..NR {
                     let k = f[2 * r + t / LOBE_MU] * f[2 * t + r / LOBE_MU];
                     for cell in &mut joint[r * DROW + t * LOBE_PHI..][..LOBE_PHI] {
-                        *cell = cell.max(0.0) * k;
+                        *cell *= k;
                     }
                 }
             }
@@ -1020,20 +979,12 @@ impl DielectricLobe {
                     let v = wkc * kc(r, s) * nu[r] * nu[s];
                     let cells = &mut joint[r * DROW + s * LOBE_PHI..][..LOBE_PHI];
                     for (cell, a) in cells.iter_mut().zip(&a_c) {
-                        *cell = g * cell.max(0.0) + v * a;
+                        *cell = g * *cell + v * a;
                     }
                 }
             }
             // symmetric scaling to the deficits of the row nodes
-            let sums = |j: &[f64], n: usize, stride: usize| -> Vec<f64> {
-                (0..n * n)
-                    .map(|rs| {
-                        let (r, s) = (rs / n, rs % n);
-                        j[r * stride + s * LOBE_PHI..][..LOBE_PHI].iter().sum()
-                    })
-                    .collect()
-            };
-            let d = sym_scaling(&sums(&joint, NR, DROW), NR, &target);
+            let d = sym_scaling(&cell_sums(&joint), &target);
             for r in 0..NR {
                 for s in 0..NR {
                     for cell in &mut joint[r * DROW + s * LOBE_PHI..][..LOBE_PHI] {

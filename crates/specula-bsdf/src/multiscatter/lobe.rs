@@ -588,21 +588,11 @@ impl LobeTable {
             if k <= 1e-9 {
                 continue;
             }
-            let mut d = [1.0f64; LOBE_MU];
-            for _ in 0..20000 {
-                let mut worst = 0.0f64;
-                for i in 0..LOBE_MU {
-                    let row: f64 = (0..LOBE_MU)
-                        .map(|b| r[i * LOBE_MU + b] * d[b] * nb[b])
-                        .sum();
-                    let ratio = k / (d[i] * row);
-                    worst = worst.max((ratio - 1.0).abs());
-                    d[i] *= ratio.sqrt();
-                }
-                if worst < 1e-9 {
-                    break;
-                }
-            }
+            let d = damped_scaling(&[k; LOBE_MU], 20000, 1e-9, |i, d| {
+                (0..LOBE_MU)
+                    .map(|b| r[i * LOBE_MU + b] * d[b] * nb[b])
+                    .sum()
+            });
             for i in 0..LOBE_MU {
                 out[i].0[ch] = (k / (d[i] * d[i])) as f32;
             }
@@ -638,25 +628,50 @@ impl LobeTable {
     }
 }
 
+/// Sinkhorn's iteration with damped (square-root) updates, shared by the conductor
+/// lobes' normalisations and the dielectric lobes' `sym_scaling` and `block_scaling`: factors f_i (0 where `target[i]` is 0, else starting at 1) updated in
+/// turn by f_i ← f_i √(target_i / (f_i part(i, f))), where `part(i, f)` is the sum that f_i
+/// multiplies, until every ratio is within `tol` of 1 or after `iterations` sweeps.
+pub(crate) fn damped_scaling(
+    target: &[f64],
+    iterations: usize,
+    tol: f64,
+    part: impl Fn(usize, &[f64]) -> f64,
+) -> Vec<f64> {
+    let mut f: Vec<f64> = target
+        .iter()
+        .map(|&t| if t <= 1e-14 { 0.0 } else { 1.0 })
+        .collect();
+    for _ in 0..iterations {
+        let mut worst = 0.0f64;
+        for i in 0..f.len() {
+            if f[i] == 0.0 {
+                continue;
+            }
+            let p = part(i, &f);
+            if p <= 0.0 {
+                continue;
+            }
+            let ratio = target[i] / (f[i] * p);
+            worst = worst.max((ratio - 1.0).abs());
+            f[i] *= ratio.sqrt();
+        }
+        if worst < tol {
+            break;
+        }
+    }
+    f
+}
+
 /// Symmetric Sinkhorn scaling of a symmetric shape: Ŝ_ibc ← d_i Ŝ_ibc d_b until every row
 /// satisfies Σ_bc Ŝ_ibc m_b A_c = target.
 fn sinkhorn(sh: &mut [f64], m: &[f64], target: f64) {
     let r: Vec<f64> = (0..LOBE_MU * LOBE_MU)
         .map(|ib| sh[ib * LOBE_PHI..][..LOBE_PHI].iter().sum::<f64>() * A_C)
         .collect();
-    let mut d = [1.0f64; LOBE_MU];
-    for _ in 0..2000 {
-        let mut worst = 0.0f64;
-        for i in 0..LOBE_MU {
-            let row: f64 = (0..LOBE_MU).map(|b| r[i * LOBE_MU + b] * d[b] * m[b]).sum();
-            let ratio = target / (d[i] * row);
-            worst = worst.max((ratio - 1.0).abs());
-            d[i] *= ratio.sqrt();
-        }
-        if worst < 1e-9 {
-            break;
-        }
-    }
+    let d = damped_scaling(&[target; LOBE_MU], 2000, 1e-9, |i, d| {
+        (0..LOBE_MU).map(|b| r[i * LOBE_MU + b] * d[b] * m[b]).sum()
+    });
     for i in 0..LOBE_MU {
         for b in 0..LOBE_MU {
             for c in 0..LOBE_PHI {

@@ -202,7 +202,7 @@ impl MicrofacetDistribution {
     /// Sample D(m) cosθm.
     fn sample_all_normals(&self, u: Vec2) -> Vec3 {
         let (sin_phi, cos_phi, alpha_2) = if self.is_isotropic() {
-            let (s, c) = (2.0 * PI * u.y).sin_cos();
+            let (s, c) = crate::math::sincos_2pi(u.y);
             (s, c, self.alpha_u * self.alpha_u)
         } else {
             // φ from the anisotropic marginal: tan φ = (αv/αu) tan(2π u)

@@ -1,7 +1,8 @@
 //! Warps from the unit square to directions, with their densities (solid angle measure).
 
+use crate::math::{sincos_2pi, sincos_quarter};
 use glam::{Vec2, Vec3};
-use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_4};
 
 /// Shirley–Chiu concentric map from the square to the unit disk.
 #[inline]
@@ -11,12 +12,14 @@ pub fn square_to_uniform_disk_concentric(u: Vec2) -> Vec2 {
     if x == 0.0 && y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, phi) = if x.abs() > y.abs() {
-        (x, FRAC_PI_4 * (y / x))
+    // φ = π/4·(y/x), or π/2 − π/4·(x/y) (sin φ and cos φ of the reduced angle swapped)
+    let (r, s, c) = if x.abs() > y.abs() {
+        let (s, c) = sincos_quarter(FRAC_PI_4 * (y / x));
+        (x, s, c)
     } else {
-        (y, FRAC_PI_2 - FRAC_PI_4 * (x / y))
+        let (s, c) = sincos_quarter(FRAC_PI_4 * (x / y));
+        (y, c, s)
     };
-    let (s, c) = phi.sin_cos();
     Vec2::new(r * c, r * s)
 }
 
@@ -41,7 +44,7 @@ pub fn square_to_cosine_hemisphere_pdf(w: Vec3) -> f32 {
 pub fn square_to_uniform_hemisphere(u: Vec2) -> Vec3 {
     let z = u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (2.0 * PI * u.y).sin_cos();
+    let (s, c) = sincos_2pi(u.y);
     Vec3::new(r * c, r * s, z)
 }
 #[inline]
@@ -58,7 +61,7 @@ pub fn square_to_uniform_hemisphere_pdf(w: Vec3) -> f32 {
 pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (2.0 * PI * u.y).sin_cos();
+    let (s, c) = sincos_2pi(u.y);
     Vec3::new(r * c, r * s, z)
 }
 pub const UNIFORM_SPHERE_PDF: f32 = 0.25 * FRAC_1_PI;

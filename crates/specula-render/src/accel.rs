@@ -2001,29 +2001,30 @@ impl Bvh {
     /// The hit recorded as `best` at distance `t`.
     #[inline(always)]
     fn make_hit(&self, best: Best, t: f32) -> Option<Hit> {
-        best.map(|(code, analytic, u, v, sub)| {
-            let (shape, prim, vertices) = if analytic {
-                let i = (code & !(LEAF | ANALYTIC)) as usize;
-                let (shape, prim) = self.analytic_ids[i];
-                if let PrimShape::Instance { .. } = self.analytic[i] {
-                    // the slot of the group shape hit, and its primitive
-                    (shape + sub.0, sub.1, None)
-                } else {
-                    (shape, prim, None)
-                }
+        // `?`, not `Option::map`: the closure was compiled out of line, and the hit it
+        // wrote piecewise was read back whole (a store-forwarding stall on every ray)
+        let (code, analytic, u, v, sub) = best?;
+        let (shape, prim, vertices) = if analytic {
+            let i = (code & !(LEAF | ANALYTIC)) as usize;
+            let (shape, prim) = self.analytic_ids[i];
+            if let PrimShape::Instance { .. } = self.analytic[i] {
+                // the slot of the group shape hit, and its primitive
+                (shape + sub.0, sub.1, None)
             } else {
-                let (p, lane) = (code as usize / LANES, code as usize % LANES);
-                let (shape, prim) = self.packet_ids[p][lane];
-                (shape, prim, Some(self.packets[p].vertices(lane)))
-            };
-            Hit {
-                t,
-                shape,
-                prim,
-                u,
-                v,
-                vertices,
+                (shape, prim, None)
             }
+        } else {
+            let (p, lane) = (code as usize / LANES, code as usize % LANES);
+            let (shape, prim) = self.packet_ids[p][lane];
+            (shape, prim, Some(self.packets[p].vertices(lane)))
+        };
+        Some(Hit {
+            t,
+            shape,
+            prim,
+            u,
+            v,
+            vertices,
         })
     }
 

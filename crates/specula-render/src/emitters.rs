@@ -40,11 +40,14 @@
 //! cells between four neighbouring pixels of the bilinear lookup are chosen with probability
 //! ∝ (mean luminance of their four corners) × (solid angle), marginal rows first, then the
 //! column; inside a cell directions are uniform in solid angle, so the pdf is constant per cell.
+//! That constant is the corners' mean luminance × W / (2π Σ weights) whatever the row (the band's
+//! solid angle cancels), so it is computed from the luminance each texel keeps beside its RGB: a
+//! lookup's radiance and pdf come from the same two cache lines, with no per-cell table.
 
 use crate::core::{Loc, Result, SceneError};
 use crate::image_io::{srgb_to_linear, Image};
 use crate::xml::Node;
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use specula_bsdf::bsdf::SpectralCurve;
 use specula_bsdf::warp::{square_to_uniform_sphere, UNIFORM_SPHERE_PDF};
 use specula_bsdf::{Rgb, ShadingPoint, Texture};
@@ -110,8 +113,11 @@ pub struct Envmap {
     /// Local → world rotation (and its inverse).
     to_world: Mat3,
     to_local: Mat3,
-    /// Linear RGB, `width + 1` columns (the last repeats the first) × `height` rows.
-    data: Vec<f32>,
+    /// Per texel (`width + 1` columns, the last repeating the first, × `height` rows): linear
+    /// RGB and, in the fourth lane, the luminance the sampling density is built from (clamped
+    /// to ≥ 0, non-finite as 0). One aligned 16-byte load gives a texel, and a cell's pdf comes
+    /// from the same four texels as its radiance (no table of its own to miss in the cache).
+    data: Vec<Vec4>,
     /// cos θ of each pixel row (θ = π·y/(H − 1)).
     cos_theta: Vec<f32>,
     /// Marginal CDF over the H − 1 cell rows (H entries, 0 … 1).
@@ -122,8 +128,10 @@ pub struct Envmap {
     /// (`guide::buckets(W) + 1` entries each).
     row_guide: Vec<u32>,
     col_guide: Vec<u32>,
-    /// Solid-angle pdf of each cell ((H − 1) × W).
-    cell_pdf: Vec<f32>,
+    /// The solid-angle pdf of a cell per unit of its corners' mean luminance: a cell's
+    /// sampling weight is that mean times its band's solid angle, so its solid-angle density
+    /// is the mean times W / (2π · Σ weights), the same for every cell (0 for a black map).
+    pdf_scale: f32,
 }
 
 impl std::fmt::Debug for Envmap {
@@ -514,14 +522,14 @@ impl Envmap {
         }
         let lin = |v: f32| if srgb { srgb_to_linear(v) } else { v };
         let pw = w + 1;
-        let mut data = vec![0.0f32; pw * h * 3];
+        let mut data = vec![Vec4::ZERO; pw * h];
         for y in 0..h {
             for x in 0..pw {
                 let rgb = img.rgb(x % w, y);
-                let o = (y * pw + x) * 3;
-                for c in 0..3 {
-                    data[o + c] = lin(rgb[c]);
-                }
+                let c = Rgb::new(lin(rgb[0]), lin(rgb[1]), lin(rgb[2]));
+                let l = c.luminance();
+                let l = if l.is_finite() { l.max(0.0) } else { 0.0 };
+                data[y * pw + x] = Vec4::new(c.0[0], c.0[1], c.0[2], l);
             }
         }
         let lin3 = Mat3::from_mat4(*to_world);
@@ -534,17 +542,7 @@ impl Envmap {
         let cos_theta: Vec<f32> = (0..h)
             .map(|y| (std::f64::consts::PI * y as f64 / (h - 1) as f64).cos() as f32)
             .collect();
-        let lum: Vec<f64> = (0..pw * h)
-            .map(|i| {
-                let c = Rgb::new(data[3 * i], data[3 * i + 1], data[3 * i + 2]);
-                let l = c.luminance() as f64;
-                if l.is_finite() {
-                    l.max(0.0)
-                } else {
-                    0.0
-                }
-            })
-            .collect();
+        let lum: Vec<f64> = data.iter().map(|t| t.w as f64).collect();
         let rows = h - 1;
         let mut weights = vec![0.0f64; rows * w];
         let mut row_sum = vec![0.0f64; rows];
@@ -566,7 +564,7 @@ impl Envmap {
         let total: f64 = row_sum.iter().sum();
         let mut row_cdf = vec![0.0f32; rows + 1];
         let mut col_cdf = vec![0.0f32; rows * (w + 1)];
-        let mut cell_pdf = vec![0.0f32; rows * w];
+        let mut pdf_scale = 0.0f32;
         if total > 0.0 && total.is_finite() {
             let mut acc = 0.0f64;
             for j in 0..rows {
@@ -593,14 +591,9 @@ impl Envmap {
                     };
                 }
                 cdf[w] = 1.0;
-                let th0 = std::f64::consts::PI * j as f64 / rows as f64;
-                let th1 = std::f64::consts::PI * (j + 1) as f64 / rows as f64;
-                let solid_angle = 2.0 * std::f64::consts::PI / w as f64 * (th0.cos() - th1.cos());
-                for i in 0..w {
-                    cell_pdf[j * w + i] = (weights[j * w + i] / total / solid_angle) as f32;
-                }
             }
             row_cdf[rows] = 1.0;
+            pdf_scale = (w as f64 / (2.0 * std::f64::consts::PI * total)) as f32;
         }
         let mut row_guide = vec![];
         guide::build(&row_cdf, &mut row_guide);
@@ -620,7 +613,7 @@ impl Envmap {
             col_cdf,
             row_guide,
             col_guide,
-            cell_pdf,
+            pdf_scale,
         })
     }
 
@@ -628,22 +621,44 @@ impl Envmap {
     #[inline]
     fn direction_to_uv(d: Vec3) -> Vec2 {
         Vec2::new(
-            d.x.atan2(-d.z) * (0.5 / PI),
+            specula_bsdf::math::atan2(d.x, -d.z) * (0.5 / PI),
             d.y.clamp(-1.0, 1.0).acos() * (1.0 / PI),
         )
     }
 
     #[inline]
     fn texel(&self, index: usize) -> Rgb {
-        Rgb::new(
-            self.data[3 * index],
-            self.data[3 * index + 1],
-            self.data[3 * index + 2],
-        )
+        let t = self.data[index];
+        Rgb::new(t.x, t.y, t.z)
     }
 
-    /// Mitsuba's `eval_spectrum`: bilinear lookup at lat-long `uv`, times `scale`.
-    fn eval_uv(&self, uv: Vec2) -> Rgb {
+    /// The solid-angle pdf of the sampling cell whose upper-left texel is `index`.
+    #[inline]
+    fn cell_pdf_at(&self, index: usize) -> f32 {
+        let pw = self.width + 1;
+        let l = |k: usize| 0.25 * self.data[k].w;
+        ((l(index) + l(index + 1)) + (l(index + pw) + l(index + pw + 1))) * self.pdf_scale
+    }
+
+    /// The sampling cell (row-major over (H − 1) × W) holding local direction `d`.
+    #[cfg(test)]
+    fn cell(&self, d: Vec3) -> usize {
+        let i = self.bilinear_cell(Self::direction_to_uv(d)).0;
+        let pw = self.width + 1;
+        (i / pw) * self.width + i % pw
+    }
+
+    /// The solid-angle pdf of sampling cell `cell` (row-major over (H − 1) × W).
+    #[cfg(test)]
+    fn cell_pdf(&self, cell: usize) -> f32 {
+        let (j, i) = (cell / self.width, cell % self.width);
+        self.cell_pdf_at(j * (self.width + 1) + i)
+    }
+
+    /// The bilinear lookup at lat-long `uv`: the index of the upper-left texel of its cell
+    /// and the weights of the right and lower texels.
+    #[inline]
+    fn bilinear_cell(&self, uv: Vec2) -> (usize, Vec2) {
         let (w, h) = (self.width, self.height);
         let mut uv = uv;
         uv.x -= 0.5 / w as f32;
@@ -655,13 +670,24 @@ impl Envmap {
         uv *= Vec2::new(w as f32, (h - 1) as f32);
         let px = (uv.x as usize).min(w - 1);
         let py = (uv.y as usize).min(h - 2);
-        let w1 = uv - Vec2::new(px as f32, py as f32);
+        (py * (w + 1) + px, uv - Vec2::new(px as f32, py as f32))
+    }
+
+    /// The radiance (times `scale`) interpolated with weights `w1` in the cell from texel `i`.
+    #[inline]
+    fn interpolate(&self, i: usize, w1: Vec2) -> Rgb {
+        let pw = self.width + 1;
         let w0 = Vec2::ONE - w1;
-        let pw = w + 1;
-        let i = py * pw + px;
-        let v0 = self.texel(i) * w0.x + self.texel(i + 1) * w1.x;
-        let v1 = self.texel(i + pw) * w0.x + self.texel(i + pw + 1) * w1.x;
-        (v0 * w0.y + v1 * w1.y) * self.scale
+        let v0 = self.data[i] * w0.x + self.data[i + 1] * w1.x;
+        let v1 = self.data[i + pw] * w0.x + self.data[i + pw + 1] * w1.x;
+        let v = v0 * w0.y + v1 * w1.y;
+        Rgb::new(v.x, v.y, v.z) * self.scale
+    }
+
+    /// Mitsuba's `eval_spectrum`: bilinear lookup at lat-long `uv`, times `scale`.
+    fn eval_uv(&self, uv: Vec2) -> Rgb {
+        let (i, w1) = self.bilinear_cell(uv);
+        self.interpolate(i, w1)
     }
 
     /// Spectral mode: the radiance from world direction `d` at the wavelengths `wl`, as
@@ -676,19 +702,9 @@ impl Envmap {
         if d == Vec3::ZERO {
             return Rgb::ZERO;
         }
-        let uv = Self::direction_to_uv(d);
-        let (w, h) = (self.width, self.height);
-        let mut uv = uv;
-        uv.x -= 0.5 / w as f32;
-        uv.x -= uv.x.floor();
-        uv.y = uv.y.clamp(0.0, 1.0);
-        uv *= Vec2::new(w as f32, (h - 1) as f32);
-        let px = (uv.x as usize).min(w - 1);
-        let py = (uv.y as usize).min(h - 2);
-        let w1 = uv - Vec2::new(px as f32, py as f32);
+        let (i, w1) = self.bilinear_cell(Self::direction_to_uv(d));
         let w0 = Vec2::ONE - w1;
-        let pw = w + 1;
-        let i = py * pw + px;
+        let pw = self.width + 1;
         let mut shape = Rgb::ZERO;
         let mut scale = 0.0f32;
         for (idx, wt) in [
@@ -722,40 +738,24 @@ impl Envmap {
         self.eval_uv(Self::direction_to_uv(d))
     }
 
-    /// The sampling cell holding local direction `d`.
-    #[inline]
-    fn cell(&self, d: Vec3) -> usize {
-        self.cell_of_uv(Self::direction_to_uv(d))
-    }
-
-    /// The sampling cell holding lat-long `uv`.
-    #[inline]
-    fn cell_of_uv(&self, uv: Vec2) -> usize {
-        let (w, h) = (self.width, self.height);
-        let mut u = uv.x - 0.5 / w as f32;
-        u -= u.floor();
-        let i = ((u * w as f32) as usize).min(w - 1);
-        let j = ((uv.y * (h - 1) as f32) as usize).min(h - 2);
-        j * w + i
-    }
-
-    /// [`Envmap::eval`] and [`Envmap::pdf`] together (one lat-long conversion).
+    /// [`Envmap::eval`] and [`Envmap::pdf`] together (one lat-long conversion, and the pdf
+    /// from the texels the radiance reads).
     pub fn eval_pdf(&self, d_world: Vec3) -> (Rgb, f32) {
         let d = self.local(d_world);
         if d == Vec3::ZERO {
             return (Rgb::ZERO, 0.0);
         }
-        let uv = Self::direction_to_uv(d);
-        (self.eval_uv(uv), self.cell_pdf[self.cell_of_uv(uv)])
+        let (i, w1) = self.bilinear_cell(Self::direction_to_uv(d));
+        (self.interpolate(i, w1), self.cell_pdf_at(i))
     }
 
-    /// Solid-angle pdf of [`Envmap::sample`].
+    /// Solid-angle pdf of [`Envmap::sample`]: that of the cell of the bilinear lookup.
     pub fn pdf(&self, d_world: Vec3) -> f32 {
         let d = self.local(d_world);
         if d == Vec3::ZERO {
             return 0.0;
         }
-        self.cell_pdf[self.cell(d)]
+        self.cell_pdf_at(self.bilinear_cell(Self::direction_to_uv(d)).0)
     }
 
     /// Importance-samples a direction (see the module documentation).
@@ -771,21 +771,25 @@ impl Envmap {
             &self.col_guide[j * g..(j + 1) * g],
             u.x,
         );
-        let pdf = self.cell_pdf[j * w + i];
+        let pdf = self.cell_pdf_at(j * (w + 1) + i);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
-        let phi = 2.0 * PI * ((i as f32 + su + 0.5) / w as f32);
+        // u of the lat-long map (φ / 2π, a half texel on from the cell's corner) and cos θ
+        let x = (i as f32 + su + 0.5) / w as f32;
         let (c0, c1) = (self.cos_theta[j], self.cos_theta[j + 1]);
         let cos_t = c0 + (c1 - c0) * sv;
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-        let (sin_p, cos_p) = phi.sin_cos();
+        let (sin_p, cos_p) = specula_bsdf::math::sincos_2pi(x);
         let d_local = Vec3::new(sin_t * sin_p, cos_t, -sin_t * cos_p);
         let wi = (self.to_world * d_local).normalize();
+        // the radiance at the sampled point, from its lat-long coordinates directly (what
+        // `direction_to_uv(d_local)` gives up to rounding, without its atan2)
+        let uv = Vec2::new(x, cos_t.clamp(-1.0, 1.0).acos() * (1.0 / PI));
         Some(DirectionSample {
             wi,
             dist: f32::INFINITY,
-            radiance: self.eval_uv(Self::direction_to_uv(d_local)),
+            radiance: self.eval_uv(uv),
             pdf,
             is_delta: false,
         })
@@ -1408,7 +1412,7 @@ mod tests {
             let (z1, z0) = (env.cos_theta[j] as f64, env.cos_theta[j + 1] as f64);
             let omega = 2.0 * std::f64::consts::PI / w as f64 * (z1 - z0);
             for i in 0..w {
-                let mass = env.cell_pdf[j * w + i] as f64 * omega;
+                let mass = env.cell_pdf(j * w + i) as f64 * omega;
                 if mass == 0.0 {
                     continue;
                 }
@@ -1483,7 +1487,7 @@ mod tests {
                 * (env.cos_theta[j] - env.cos_theta[j + 1]) as f64;
             for i in 0..w {
                 if bright(j, i) {
-                    sun_mass += env.cell_pdf[j * w + i] as f64 * omega;
+                    sun_mass += env.cell_pdf(j * w + i) as f64 * omega;
                     sun_area += omega / (4.0 * std::f64::consts::PI);
                 }
             }

@@ -237,7 +237,7 @@ fn normal_matrix(to_world: &Mat4) -> Mat3 {
 
 /// `atan2(y, x)` mapped to [0, 2π).
 fn phi_positive(y: f32, x: f32) -> f32 {
-    let phi = y.atan2(x);
+    let phi = specula_bsdf::math::atan2(y, x);
     if phi < 0.0 {
         phi + 2.0 * PI
     } else {

@@ -158,7 +158,7 @@ impl Scene {
                     let cos_t = 1.0 - a;
                     let sin2_t = (a * (2.0 - a)).max(0.0);
                     let sin_t = sin2_t.sqrt();
-                    let (sin_p, cos_p) = (2.0 * std::f32::consts::PI * u.y).sin_cos();
+                    let (sin_p, cos_p) = specula_bsdf::math::sincos_2pi(u.y);
                     let f = specula_bsdf::frame::Frame::from_normal(axis);
                     let d =
                         (f.s * (sin_t * cos_p) + f.t * (sin_t * sin_p) + f.n * cos_t).normalize();

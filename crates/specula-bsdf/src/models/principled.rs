@@ -336,7 +336,7 @@ impl Gtr1 {
     }
     #[inline]
     fn sample(&self, u: Vec2) -> Vec3 {
-        let (s, c) = (2.0 * PI * u.x).sin_cos();
+        let (s, c) = crate::math::sincos_2pi(u.x);
         let a2 = self.alpha * self.alpha;
         let cos2 = (1.0 - a2.powf(1.0 - u.y)) / (1.0 - a2);
         let sin_t = (1.0 - cos2).max(0.0).sqrt();

@@ -31,7 +31,7 @@ use crate::frame::reflect;
 use crate::spectrum::Spectrum;
 use crate::warp;
 use glam::{Vec2, Vec3};
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::FRAC_1_PI;
 
 #[derive(Clone, Debug)]
 pub struct Velvet {
@@ -96,7 +96,7 @@ impl Velvet {
         let t = sigma * (-(1.0 - u2.x).max(1e-30).ln()).sqrt();
         let inv = 1.0 / (1.0 + t * t).sqrt();
         let (cos_t, sin_t) = (t * inv, inv);
-        let (s, c) = (2.0 * PI * u2.y).sin_cos();
+        let (s, c) = crate::math::sincos_2pi(u2.y);
         Vec3::new(sin_t * c, sin_t * s, cos_t)
     }
 }

@@ -61,7 +61,7 @@ fn hg_eval(g: f32, cos_wo_wi: f32) -> f32 {
 #[inline]
 fn around(axis: Vec3, cos_t: f32, u: f32) -> Vec3 {
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    let (s, c) = (2.0 * PI * u).sin_cos();
+    let (s, c) = specula_bsdf::math::sincos_2pi(u);
     Frame::from_normal(axis)
         .to_world(Vec3::new(sin_t * c, sin_t * s, cos_t))
         .normalize()

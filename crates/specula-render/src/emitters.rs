@@ -41,7 +41,7 @@
 //! ∝ (mean luminance of their four corners) × (solid angle), marginal rows first, then the
 //! column; inside a cell directions are uniform in solid angle, so the pdf is constant per cell.
 //! That constant is the corners' mean luminance × W / (2π Σ weights) whatever the row (the band's
-//! solid angle cancels), so it is computed from the luminance each texel keeps beside its RGB: a
+//! solid angle cancels), so it is the mean of a density share each texel keeps beside its RGB: a
 //! lookup's radiance and pdf come from the same two cache lines, with no per-cell table.
 
 use crate::core::{Loc, Result, SceneError};
@@ -114,9 +114,12 @@ pub struct Envmap {
     to_world: Mat3,
     to_local: Mat3,
     /// Per texel (`width + 1` columns, the last repeating the first, × `height` rows): linear
-    /// RGB and, in the fourth lane, the luminance the sampling density is built from (clamped
-    /// to ≥ 0, non-finite as 0). One aligned 16-byte load gives a texel, and a cell's pdf comes
-    /// from the same four texels as its radiance (no table of its own to miss in the cache).
+    /// RGB and, in the fourth lane, its share of the sampling density: its luminance (clamped
+    /// to ≥ 0, non-finite as 0) × W / (2π Σ weights), a cell's pdf being the mean of its four
+    /// corners' (see the module docs; the factor is applied per texel, in f64, so that no
+    /// f32 factor can overflow for a very dark map). One aligned 16-byte load gives a texel,
+    /// and a cell's pdf comes from the texels its radiance reads (no table of its own to miss
+    /// in the cache).
     data: Vec<Vec4>,
     /// cos θ of each pixel row (θ = π·y/(H − 1)).
     cos_theta: Vec<f32>,
@@ -128,10 +131,6 @@ pub struct Envmap {
     /// (`guide::buckets(W) + 1` entries each).
     row_guide: Vec<u32>,
     col_guide: Vec<u32>,
-    /// The solid-angle pdf of a cell per unit of its corners' mean luminance: a cell's
-    /// sampling weight is that mean times its band's solid angle, so its solid-angle density
-    /// is the mean times W / (2π · Σ weights), the same for every cell (0 for a black map).
-    pdf_scale: f32,
 }
 
 impl std::fmt::Debug for Envmap {
@@ -564,7 +563,6 @@ impl Envmap {
         let total: f64 = row_sum.iter().sum();
         let mut row_cdf = vec![0.0f32; rows + 1];
         let mut col_cdf = vec![0.0f32; rows * (w + 1)];
-        let mut pdf_scale = 0.0f32;
         if total > 0.0 && total.is_finite() {
             let mut acc = 0.0f64;
             for j in 0..rows {
@@ -593,7 +591,17 @@ impl Envmap {
                 cdf[w] = 1.0;
             }
             row_cdf[rows] = 1.0;
-            pdf_scale = (w as f64 / (2.0 * std::f64::consts::PI * total)) as f32;
+        }
+        // a cell's weight is its corners' mean luminance × its band's solid angle, so its
+        // solid-angle density is that mean × W / (2π Σ weights) in every row: each texel keeps
+        // its luminance times that factor (all 0 for a black map, which is never sampled)
+        let pdf_scale = if total > 0.0 && total.is_finite() {
+            w as f64 / (2.0 * std::f64::consts::PI * total)
+        } else {
+            0.0
+        };
+        for (t, &l) in data.iter_mut().zip(&lum) {
+            t.w = (l * pdf_scale) as f32;
         }
         let mut row_guide = vec![];
         guide::build(&row_cdf, &mut row_guide);
@@ -613,7 +621,6 @@ impl Envmap {
             col_cdf,
             row_guide,
             col_guide,
-            pdf_scale,
         })
     }
 
@@ -637,7 +644,7 @@ impl Envmap {
     fn cell_pdf_at(&self, index: usize) -> f32 {
         let pw = self.width + 1;
         let l = |k: usize| 0.25 * self.data[k].w;
-        ((l(index) + l(index + 1)) + (l(index + pw) + l(index + pw + 1))) * self.pdf_scale
+        (l(index) + l(index + 1)) + (l(index + pw) + l(index + pw + 1))
     }
 
     /// The sampling cell (row-major over (H − 1) × W) holding local direction `d`.
@@ -1563,6 +1570,32 @@ mod tests {
         ));
         assert!(e.sample_direction(Vec3::ZERO, Vec2::splat(0.5)).is_none());
         assert_eq!(e.pdf_direction(Vec3::Y), 0.0);
+
+        // A very dark map (subnormal values, black bottom row) samples as its bright twin: the
+        // density scale W / (2π Σ weights) is about 3e39, beyond f32, and must not overflow
+        // (subnormal values carry ~1e-4 and their luminance ~2e-3 relative rounding).
+        let bright: Vec<f32> = vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 0.0, 0.0, 0.0, 0.0];
+        let [b, d] = [1.0f32, 1e-41].map(|k| {
+            let img = Image {
+                width: 4,
+                height: 3,
+                channels: 1,
+                data: bright.iter().map(|v| v * k).collect(),
+            };
+            Emitter::Envmap(Box::new(
+                Envmap::new(&img, false, 1.0, &Mat4::IDENTITY).unwrap(),
+            ))
+        });
+        let mut rng = Pcg32::new(3, 1);
+        for _ in 0..200 {
+            let dir = square_to_uniform_sphere(rng.next_vec2());
+            let (pb, pd) = (b.pdf_direction(dir), d.pdf_direction(dir));
+            assert!(
+                pd.is_finite() && (pd - pb).abs() <= 1e-2 * pb,
+                "{dir}: {pd} vs {pb}"
+            );
+        }
+        check_sampling(&d, 7);
         assert!(Envmap::new(
             &Image {
                 width: 2,

@@ -37,7 +37,8 @@ Sections (`--all` runs them all; each has its own flag):
                  64 spp, and Specula's whole-process time to reach Mitsuba's 64-spp relMSE
                  (../shared/reference/metrics.json; relMSE as ../shared/README.md defines it)
                  with `--sampler` TEE_SAMPLER (`--tee-sampler`, default sobol), interpolated
-                 between renders at doubling sample counts; as a ratio to Mitsuba's time.
+                 between renders at doubling sample counts; as a ratio to Mitsuba's time;
+                 each scene twice: uniform sampling and `--adaptive`.
 Mitsuba is optional (`pip install mitsuba`): without it the Specula columns still print (and
 --equal-error needs it to read EXR files). Its `llvm_ad_rgb` variant needs libLLVM
 (DRJIT_LIBLLVM_PATH; /usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 is used when it exists and the
@@ -197,12 +198,12 @@ def run_measured(cmd, env=None):
         return Run(p.returncode, wall, rss, cpu, fo.read(), fe.read(), t0_wall)
 
 
-SUMMARY = re.compile(r"(\d+)×(\d+) at (\d+) spp \((\w+)\) in ([0-9.]+) s — ([0-9.]+) M samples/s")
+SUMMARY = re.compile(r"(\d+)×(\d+) at (\d+) spp \(([\w ,]+)\) in ([0-9.]+) s — ([0-9.]+) M samples/s")
 TIMINGS = re.compile(r"timings: (.*); start-up ([0-9.]+) s .*render ([0-9.]+) s, write ([0-9.]+) s")
 
 
 def specula_run(scene, spp=None, size=None, threads=0, sampler=None, seed=0, out=None,
-                defines=()):
+                defines=(), adaptive=False):
     """One `specula render --timings`; None when the scene does not load (with its error)."""
     out = out or "/tmp/specula_bench.exr"
     cmd = [EXE, "render", scene, "--quiet", "--timings", "--threads", threads, "-o", out,
@@ -213,6 +214,8 @@ def specula_run(scene, spp=None, size=None, threads=0, sampler=None, seed=0, out
         cmd += ["--size", "{}x{}".format(*size)]
     if sampler:
         cmd += ["--sampler", sampler]
+    if adaptive:
+        cmd += ["--adaptive"]
     for d in defines:
         cmd += ["-D", d]
     r = run_measured(cmd)
@@ -428,35 +431,36 @@ def section_equal_error(a):
         target = metrics[name]["mitsuba_64spp_relmse"]
         ref = read_exr(REFS / f"{name}.exr")
         m = mitsuba_run(scene, 64, warm=1)
-        pts = []  # (spp, relmse, wall)
-        for spp in ladder:
-            out = f"/tmp/specula_tee_{name}.exr"
-            r, err = specula_run(scene, spp=spp, sampler=a.tee_sampler, threads=a.threads,
-                                 out=out)
-            if r is None:
-                sys.exit(f"specula failed on {name}: {err}")
-            e = relmse(read_exr(out), ref)
-            pts.append((r["spp"], e, r["wall"]))
-            if e <= target:
-                break
-        # log-log interpolation of relMSE between the two sample counts around the target;
-        # time linear in spp between them
-        t_eq, spp_eq = None, None
-        for (s0, e0, t0), (s1, e1, t1) in zip(pts, pts[1:]):
-            if e0 > target >= e1:
-                f = (math.log(e0) - math.log(target)) / (math.log(e0) - math.log(e1))
-                spp_eq = math.exp(math.log(s0) + f * (math.log(s1) - math.log(s0)))
-                t_eq = t0 + (spp_eq - s0) / (s1 - s0) * (t1 - t0)
-        if t_eq is None and pts and pts[0][1] <= target:
-            spp_eq, t_eq = pts[0][0], pts[0][2]  # already there at the first count
-        ladder_s = ", ".join(f"{s}: {e:.4g} in {t:.2f} s" for s, e, t in pts)
-        rows.append([name, f"{target:.4g}", f_ms(m and m["render"], 2),
-                     f_ms(m and m["process"], 2),
-                     f"{spp_eq:.0f}" if spp_eq else "not reached",
-                     f_ms(t_eq, 2),
-                     f"{t_eq / m['render']:.2f}" if (t_eq and m) else "n/a",
-                     ladder_s])
-    table(["scene", "Mitsuba 64-spp relMSE", "Mitsuba 64 spp render (s)",
+        for adaptive in (False, True):
+            pts = []  # (spp, relmse, wall)
+            for spp in ladder:
+                out = f"/tmp/specula_tee_{name}.exr"
+                r, err = specula_run(scene, spp=spp, sampler=a.tee_sampler, threads=a.threads,
+                                     out=out, adaptive=adaptive)
+                if r is None:
+                    sys.exit(f"specula failed on {name}: {err}")
+                e = relmse(read_exr(out), ref)
+                pts.append((r["spp"], e, r["wall"]))
+                if e <= target:
+                    break
+            # log-log interpolation of relMSE between the two sample counts around the
+            # target; time linear in spp between them
+            t_eq, spp_eq = None, None
+            for (s0, e0, t0), (s1, e1, t1) in zip(pts, pts[1:]):
+                if e0 > target >= e1:
+                    f = (math.log(e0) - math.log(target)) / (math.log(e0) - math.log(e1))
+                    spp_eq = math.exp(math.log(s0) + f * (math.log(s1) - math.log(s0)))
+                    t_eq = t0 + (spp_eq - s0) / (s1 - s0) * (t1 - t0)
+            if t_eq is None and pts and pts[0][1] <= target:
+                spp_eq, t_eq = pts[0][0], pts[0][2]  # already there at the first count
+            ladder_s = ", ".join(f"{s}: {e:.4g} in {t:.2f} s" for s, e, t in pts)
+            rows.append([name, "adaptive" if adaptive else "uniform", f"{target:.4g}",
+                         f_ms(m and m["render"], 2), f_ms(m and m["process"], 2),
+                         f"{spp_eq:.0f}" if spp_eq else "not reached",
+                         f_ms(t_eq, 2),
+                         f"{t_eq / m['render']:.2f}" if (t_eq and m) else "n/a",
+                         ladder_s])
+    table(["scene", "Specula sampling", "Mitsuba 64-spp relMSE", "Mitsuba 64 spp render (s)",
            "Mitsuba process (s)", "Specula spp to match", "Specula process (s)",
            "ratio to Mitsuba render", "Specula spp: relMSE in time"], rows)
 

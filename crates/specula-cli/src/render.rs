@@ -46,6 +46,12 @@ pub struct RenderArgs {
     /// samplers round the sample count as Mitsuba does.
     #[arg(long, value_name = "NAME")]
     pub sampler: Option<String>,
+    /// Spend the samples adaptively: `--spp` (or the scene's count) becomes the mean per pixel;
+    /// a pilot pass takes a quarter of them everywhere, the rest go where its error estimate is
+    /// highest (see README, "Adaptive sampling"). Needs a progressive sampler (sobol, the
+    /// default, or independent).
+    #[arg(long)]
+    pub adaptive: bool,
     /// Random seed (the image is a deterministic function of the seed).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -151,12 +157,20 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let startup = start - t_start;
     let samples_per_tile =
         (specula_render::render::TILE * specula_render::render::TILE) as f64 * spp as f64;
-    let result = render(&scene, &opts, &stop, &|done, total| {
+    let report = |done: usize, total: usize| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
-        let rate = done as f64 * samples_per_tile / start.elapsed().as_secs_f64().max(1e-9);
-        bar.set_message(format!("{:.2} M samples/s", rate / 1e6));
-    });
+        if !args.adaptive {
+            let rate = done as f64 * samples_per_tile / start.elapsed().as_secs_f64().max(1e-9);
+            bar.set_message(format!("{:.2} M samples/s", rate / 1e6));
+        }
+    };
+    let result = if args.adaptive {
+        specula_render::adaptive::render_adaptive(&scene, &opts, &stop, &report)
+            .map_err(CliError::usage)?
+    } else {
+        render(&scene, &opts, &stop, &report)
+    };
     bar.finish_and_clear();
 
     if result.overflowed > 0 {
@@ -185,13 +199,14 @@ pub fn run(args: &RenderArgs, out: &mut dyn Write) -> Result<(), CliError> {
     let c = result.counters;
     writeln!(
         out,
-        "{}{}: {}×{} at {} spp ({}{}) in {:.2} s — {:.3} M samples/s, {:.3} M rays/s, {} NaN/Inf samples discarded{}",
+        "{}{}: {}×{} at {} spp ({}{}{}) in {:.2} s — {:.3} M samples/s, {:.3} M rays/s, {} NaN/Inf samples discarded{}",
         if result.complete { "" } else { "interrupted: " },
         output.display(),
         w,
         h,
         result.spp,
         scene.sampler.kind.name(),
+        if args.adaptive { ", adaptive" } else { "" },
         if scene.spectral { ", spectral" } else { "" },
         secs,
         c.samples as f64 / secs / 1e6,

@@ -256,22 +256,31 @@ impl ImageBlock {
     }
 
     #[inline]
-    fn add(&mut self, index: usize, value: Rgb, w: f32) {
-        self.data[index] += rgb1(value) * w;
+    fn add(&mut self, index: usize, v: Vec4, w: f32) {
+        self.data[index] += v * w;
     }
 
     /// Splats a sample taken at continuous film position `film_pos` (pixel (i, j) spans
     /// [i, i+1) × [j, j+1)). Pixels outside the stored area are skipped. Allocation-free.
+    #[inline]
     pub fn put(&mut self, film_pos: Vec2, value: Rgb) {
+        self.put_weighted(film_pos, value, 1.0);
+    }
+
+    /// [`ImageBlock::put`] with the sample's weight scaled by `weight` (its value and its
+    /// contribution to Σ w alike): adaptive sampling weights a pixel's samples by the inverse
+    /// of their number, so that every pixel's samples weigh the same in total.
+    pub fn put_weighted(&mut self, film_pos: Vec2, value: Rgb, weight: f32) {
         if !film_pos.is_finite() {
             return;
         }
+        let v = rgb1(value) * weight;
         let (ew, eh) = self.stored_size();
         if let RFilter::Box = self.filter {
             let x = floor_i64(film_pos.x) - self.offset.0 as i64;
             let y = floor_i64(film_pos.y) - self.offset.1 as i64;
             if x >= 0 && y >= 0 && (x as usize) < self.size.0 && (y as usize) < self.size.1 {
-                self.add(y as usize * ew + x as usize, value, 1.0);
+                self.add(y as usize * ew + x as usize, v, 1.0);
             }
             return;
         }
@@ -292,11 +301,11 @@ impl ImageBlock {
         let taps = (px, py, x0 as usize, y0 as usize, nx, ny);
         if nx <= 8 && ny <= 8 {
             // the common case (Gaussians up to σ = 0.875): 8 weights per axis at once
-            self.put_taps8(taps, value);
+            self.put_taps8(taps, v);
         } else if nx <= MAX_TAPS && ny <= MAX_TAPS {
-            self.put_taps::<MAX_TAPS>(taps, value);
+            self.put_taps::<MAX_TAPS>(taps, v);
         } else {
-            self.put_wide(px, py, (x0, y0, x1, y1), value);
+            self.put_wide(px, py, (x0, y0, x1, y1), v);
         }
     }
 
@@ -307,12 +316,11 @@ impl ImageBlock {
     fn put_taps8(
         &mut self,
         (px, py, x0, y0, nx, ny): (f32, f32, usize, usize, usize, usize),
-        value: Rgb,
+        v: Vec4,
     ) {
         let ew = self.stored_size().0;
         let wx = self.filter.eval8(x0 as f32, px);
         let wy = self.filter.eval8(y0 as f32, py);
-        let v = rgb1(value);
         for (k, &wy) in wy[..ny].iter().enumerate() {
             if wy == 0.0 {
                 continue;
@@ -332,7 +340,7 @@ impl ImageBlock {
     fn put_taps<const N: usize>(
         &mut self,
         (px, py, x0, y0, nx, ny): (f32, f32, usize, usize, usize, usize),
-        value: Rgb,
+        v: Vec4,
     ) {
         let ew = self.stored_size().0;
         let mut wx = [0f32; N];
@@ -343,7 +351,6 @@ impl ImageBlock {
         for (i, w) in wy[..ny].iter_mut().enumerate() {
             *w = self.filter.eval((y0 + i) as f32 - py);
         }
-        let v = rgb1(value);
         for (k, &wy) in wy[..ny].iter().enumerate() {
             if wy == 0.0 {
                 continue;
@@ -358,7 +365,7 @@ impl ImageBlock {
     /// [`ImageBlock::put`] for filters wider than [`MAX_TAPS`] pixels: weights evaluated as
     /// they are used.
     #[cold]
-    fn put_wide(&mut self, px: f32, py: f32, (x0, y0, x1, y1): (i64, i64, i64, i64), value: Rgb) {
+    fn put_wide(&mut self, px: f32, py: f32, (x0, y0, x1, y1): (i64, i64, i64, i64), v: Vec4) {
         let ew = self.stored_size().0;
         for y in y0..=y1 {
             let wy = self.filter.eval(y as f32 - py);
@@ -369,7 +376,7 @@ impl ImageBlock {
             for x in x0..=x1 {
                 let w = self.filter.eval(x as f32 - px);
                 if w != 0.0 {
-                    self.add(row + x as usize, value, w * wy);
+                    self.add(row + x as usize, v, w * wy);
                 }
             }
         }

@@ -10,9 +10,11 @@
 //!   parameters, includes, transforms);
 //! - [`geometry`], [`mesh_io`], [`accel`]: shapes, OBJ/PLY loading, the BVH;
 //! - [`emitters`], [`texture`], [`image_io`], [`film`]: lights, textures, images, the film;
-//! - [`scene`], [`camera`], [`integrator`], [`render`]: assembling and rendering a scene.
+//! - [`scene`], [`camera`], [`integrator`], [`render`]: assembling and rendering a scene;
+//!   [`adaptive`]: rendering with the samples spent where the image is noisy.
 
 pub mod accel;
+pub mod adaptive;
 pub mod camera;
 pub mod core;
 pub mod emitters;

@@ -10,7 +10,7 @@
 use crate::accel::Intersector;
 use crate::camera::Camera;
 use crate::core::{Hit, Ray};
-use crate::film::ImageBlock;
+use crate::film::{Film, ImageBlock};
 use crate::integrator::{Counters, RayDifferentials};
 use crate::sampler::{
     Independent, LowDiscrepancy, MultiJitter, Orthogonal, PixelSampler, SamplerKind, Sobol,
@@ -63,12 +63,68 @@ struct TileBlocks {
     aovs: Vec<ImageBlock>,
 }
 
-fn render_tile<S: PixelSampler>(
+/// Which of a pixel's samples a pass takes: indices `first .. first + count`, each splatted
+/// with weight `weight` (a uniform render: 0, spp, 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct PixelSamples {
+    pub first: u32,
+    pub count: u32,
+    pub weight: f32,
+}
+
+/// What a pilot pass gathers per pixel for adaptive sampling ([`crate::adaptive`]): the sums
+/// of the pixel's own sample values (before filtering) over the first and the second half of
+/// its samples, and how many of each were finite.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct PixelStats {
+    pub sum: [[f32; 3]; 2],
+    pub n: [u32; 2],
+}
+
+impl PixelStats {
+    #[inline]
+    fn add(&mut self, half: usize, l: Rgb) {
+        for c in 0..3 {
+            self.sum[half][c] += l.0[c];
+        }
+        self.n[half] += 1;
+    }
+}
+
+/// What one pass over the film returns.
+pub(crate) struct Pass {
+    pub film: Film,
+    pub aov_films: Vec<Film>,
+    pub counters: Counters,
+    pub complete: bool,
+    /// [`PixelStats`] per film pixel (row-major), when the pass gathered them.
+    pub stats: Vec<PixelStats>,
+}
+
+/// Settings of one pass: the sample count the sampler is built for (a progressive sampler's
+/// largest count when a pixel's samples come in two passes), the count the ray differentials
+/// are scaled for, and where a pilot pass splits a pixel's samples into halves (`None`: no
+/// [`PixelStats`]).
+#[derive(Clone, Copy)]
+pub(crate) struct PassSettings {
+    pub sampler_spp: u32,
+    pub differential_spp: u32,
+    pub seed: u64,
+    pub stats_half: Option<u32>,
+    /// Tile edge in pixels (smaller tiles balance the threads' work when pixels take very
+    /// different numbers of samples).
+    pub tile: usize,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn render_tile<S: PixelSampler, P: Fn(usize) -> PixelSamples>(
     scene: &Scene,
     sampler: &mut S,
-    spp: u32,
+    settings: PassSettings,
+    plan: &P,
     aov_count: usize,
     (x0, y0, w, h): (usize, usize, usize, usize),
+    stats: &mut [PixelStats],
 ) -> (TileBlocks, Counters) {
     let film = &scene.film;
     let mut block = film.new_block(x0, y0, w, h);
@@ -95,18 +151,29 @@ fn render_tile<S: PixelSampler>(
     }; PACKET];
     for y in y0..y0 + h {
         for x in x0..x0 + w {
-            let index = (y * film.width + x) as u64;
-            sampler.start_pixel(index);
+            let index = y * film.width + x;
+            let PixelSamples {
+                first,
+                count,
+                weight,
+            } = plan(index);
+            if count == 0 {
+                continue;
+            }
+            sampler.start_pixel_from(index as u64, first);
             let wl_offset = scene
                 .spectral
                 .then(|| crate::spectral::pixel_offset(sampler));
+            let stat = settings
+                .stats_half
+                .map(|half| (half, (y - y0) * w + (x - x0)));
             // the pixel's camera rays are traced in packets of up to 8 (they are coherent),
             // then each path goes on alone
             let mut done = 0;
-            while done < spp {
-                let n = (spp - done).min(PACKET as u32) as usize;
+            while done < count {
+                let n = (count - done).min(PACKET as u32) as usize;
                 for i in 0..n {
-                    sampler.start_sample(done + i as u32, 0);
+                    sampler.start_sample(first + done + i as u32, 0);
                     pos[i] = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                     // a thin lens draws its aperture sample next; a pinhole draws none
                     let mut aperture = Vec2::splat(0.5);
@@ -115,15 +182,23 @@ fn render_tile<S: PixelSampler>(
                         aperture
                     });
                     if differentials {
-                        diffs[i] = ray_differentials(scene, rays[i], pos[i], inv, aperture, spp);
+                        diffs[i] = ray_differentials(
+                            scene,
+                            rays[i],
+                            pos[i],
+                            inv,
+                            aperture,
+                            settings.differential_spp,
+                        );
                     }
                 }
                 scene.accel.intersect_packet(&rays[..n], &mut hits[..n]);
                 for i in 0..n {
+                    let sample = first + done + i as u32;
                     // dimension 0: film position, 1: aperture (thin lens); the integrator
                     // starts at 2 whatever the camera, so that the two never share one
-                    let u_wl = wl_offset.map(|o| crate::spectral::wavelength_u(o, done + i as u32));
-                    sampler.start_sample(done + i as u32, 2);
+                    let u_wl = wl_offset.map(|o| crate::spectral::wavelength_u(o, sample));
+                    sampler.start_sample(sample, 2);
                     let l = match u_wl {
                         Some(u) => scene.sample_spectral(
                             integrator,
@@ -147,9 +222,13 @@ fn render_tile<S: PixelSampler>(
                     };
                     c.samples += 1;
                     if l.is_finite() {
-                        block.put(pos[i], l);
+                        block.put_weighted(pos[i], l, weight);
                         for (k, b) in aov_blocks.iter_mut().enumerate() {
-                            b.put(pos[i], Rgb([aov[3 * k], aov[3 * k + 1], aov[3 * k + 2]]));
+                            let v = Rgb([aov[3 * k], aov[3 * k + 1], aov[3 * k + 2]]);
+                            b.put_weighted(pos[i], v, weight);
+                        }
+                        if let Some((half, at)) = stat {
+                            stats[at].add((sample >= half) as usize, l);
                         }
                     } else {
                         c.invalid += 1;
@@ -213,77 +292,113 @@ pub fn render(
     }
 }
 
-fn render_with<S: PixelSampler>(
-    scene: &Scene,
-    opts: &RenderOptions,
-    stop: &AtomicBool,
-    progress: &(dyn Fn(usize, usize) + Sync),
-) -> RenderOutput {
-    let start = Instant::now();
-    let spp = scene.sampler.sample_count(opts.spp);
-    let aov_names = scene.integrator.aov_channels();
-    let (fw, fh) = (scene.film.width, scene.film.height);
-    let tiles: Vec<(usize, usize)> = (0..fh.div_ceil(TILE))
-        .flat_map(|ty| (0..fw.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-        .collect();
-    let total = tiles.len();
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    let work = || {
-        tiles
-            .par_iter()
-            .map(|&(x0, y0)| {
-                if stop.load(Ordering::Relaxed) {
-                    return None;
-                }
-                let mut sampler = S::new(&scene.sampler, spp, opts.seed);
-                let rect = (x0, y0, TILE.min(fw - x0), TILE.min(fh - y0));
-                let r = render_tile(scene, &mut sampler, spp, aov_names.len(), rect);
-                let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-                progress(n, total);
-                Some(r)
-            })
-            .collect::<Vec<_>>()
-    };
-    let blocks = if opts.threads > 0 {
-        match rayon::ThreadPoolBuilder::new()
-            .num_threads(opts.threads)
-            .build()
-        {
-            Ok(pool) => pool.install(work),
-            Err(_) => work(),
-        }
-    } else {
-        work()
-    };
-    let mut film = scene.film.clone();
-    let mut aov_films = vec![scene.film.clone(); aov_names.len().div_ceil(3)];
-    let mut counters = Counters::default();
-    let mut complete = true;
-    for b in blocks {
-        match b {
-            Some((blocks, c)) => {
-                film.merge(&blocks.image);
-                for (f, b) in aov_films.iter_mut().zip(&blocks.aovs) {
-                    f.merge(b);
-                }
-                counters.add(&c);
-            }
-            None => complete = false,
+/// Runs `f` on a pool of `threads` workers (0: rayon's global pool, all cores).
+pub(crate) fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    if threads > 0 {
+        if let Ok(pool) = rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+            return pool.install(f);
         }
     }
-    let developed: Vec<Vec<f32>> = aov_films.iter().map(|f| f.develop()).collect();
-    let aovs = aov_names
+    f()
+}
+
+/// The film's tiles of `size` × `size` pixels (top-left corners), in the order their blocks
+/// are merged.
+pub(crate) fn tiles(scene: &Scene, size: usize) -> Vec<(usize, usize)> {
+    let (fw, fh) = (scene.film.width, scene.film.height);
+    (0..fh.div_ceil(size))
+        .flat_map(|ty| (0..fw.div_ceil(size)).map(move |tx| (tx * size, ty * size)))
+        .collect()
+}
+
+/// One pass over the film: every pixel takes the samples `plan` gives it; tiles in parallel
+/// on the current pool, blocks merged in a fixed order (the result does not depend on the
+/// thread count). `progress(n)` is told after each tile (n = tiles done in this pass).
+pub(crate) fn render_pass<S: PixelSampler, P: Fn(usize) -> PixelSamples + Sync>(
+    scene: &Scene,
+    settings: PassSettings,
+    plan: &P,
+    stop: &AtomicBool,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Pass {
+    let aov_count = scene.integrator.aov_channels().len();
+    let (fw, fh) = (scene.film.width, scene.film.height);
+    let size = settings.tile;
+    let tiles = tiles(scene, size);
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let blocks = tiles
+        .par_iter()
+        .map(|&(x0, y0)| {
+            if stop.load(Ordering::Relaxed) {
+                return None;
+            }
+            let mut sampler = S::new(&scene.sampler, settings.sampler_spp, settings.seed);
+            let rect = (x0, y0, size.min(fw - x0), size.min(fh - y0));
+            let mut stats =
+                vec![PixelStats::default(); settings.stats_half.map_or(0, |_| rect.2 * rect.3)];
+            let r = render_tile(
+                scene,
+                &mut sampler,
+                settings,
+                plan,
+                aov_count,
+                rect,
+                &mut stats,
+            );
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+            Some((r, stats))
+        })
+        .collect::<Vec<_>>();
+    let mut pass = Pass {
+        film: scene.film.clone(),
+        aov_films: vec![scene.film.clone(); aov_count.div_ceil(3)],
+        counters: Counters::default(),
+        complete: true,
+        stats: vec![PixelStats::default(); settings.stats_half.map_or(0, |_| fw * fh)],
+    };
+    for (b, &(x0, y0)) in blocks.into_iter().zip(&tiles) {
+        match b {
+            Some(((blocks, c), stats)) => {
+                pass.film.merge(&blocks.image);
+                for (f, b) in pass.aov_films.iter_mut().zip(&blocks.aovs) {
+                    f.merge(b);
+                }
+                pass.counters.add(&c);
+                let w = size.min(fw - x0);
+                for (k, row) in stats.chunks_exact(w.max(1)).enumerate() {
+                    let at = (y0 + k) * fw + x0;
+                    pass.stats[at..at + w].copy_from_slice(row);
+                }
+            }
+            None => pass.complete = false,
+        }
+    }
+    pass
+}
+
+/// Develops the image and AOV films of a render into its output.
+pub(crate) fn output(
+    scene: &Scene,
+    (rgb, overflowed): (Vec<f32>, usize),
+    developed_aovs: Vec<Vec<f32>>,
+    counters: Counters,
+    start: Instant,
+    complete: bool,
+    spp: u32,
+) -> RenderOutput {
+    let aovs = scene
+        .integrator
+        .aov_channels()
         .into_iter()
         .enumerate()
         .map(|(k, name)| {
-            let (plane, ch) = (&developed[k / 3], k % 3);
+            let (plane, ch) = (&developed_aovs[k / 3], k % 3);
             (name, plane.iter().skip(ch).step_by(3).copied().collect())
         })
         .collect();
-    let (rgb, overflowed) = film.develop_counting();
     RenderOutput {
-        width: fw,
-        height: fh,
+        width: scene.film.width,
+        height: scene.film.height,
         rgb,
         counters,
         elapsed: start.elapsed(),
@@ -292,4 +407,40 @@ fn render_with<S: PixelSampler>(
         aovs,
         overflowed,
     }
+}
+
+fn render_with<S: PixelSampler>(
+    scene: &Scene,
+    opts: &RenderOptions,
+    stop: &AtomicBool,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> RenderOutput {
+    let start = Instant::now();
+    let spp = scene.sampler.sample_count(opts.spp);
+    let total = tiles(scene, TILE).len();
+    let settings = PassSettings {
+        sampler_spp: spp,
+        differential_spp: spp,
+        seed: opts.seed,
+        stats_half: None,
+        tile: TILE,
+    };
+    let plan = |_| PixelSamples {
+        first: 0,
+        count: spp,
+        weight: 1.0,
+    };
+    let pass = in_pool(opts.threads, || {
+        render_pass::<S, _>(scene, settings, &plan, stop, &|n| progress(n, total))
+    });
+    let aovs = pass.aov_films.iter().map(|f| f.develop()).collect();
+    output(
+        scene,
+        pass.film.develop_counting(),
+        aovs,
+        pass.counters,
+        start,
+        pass.complete,
+        spp,
+    )
 }

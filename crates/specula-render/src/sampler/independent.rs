@@ -36,6 +36,11 @@ impl PixelSampler for Independent {
     }
     #[inline]
     fn start_sample(&mut self, _sample: u32, _dimension: u32) {}
+    fn start_pixel_from(&mut self, pixel: u64, first: u32) {
+        // samples from `first` on draw from their own stream (`first` = 0: the pixel's usual one)
+        let key = pixel_seed(self.seed, pixel).wrapping_add((first as u64) << 32);
+        self.rng = Pcg32::new(key, pixel);
+    }
 }
 
 #[cfg(test)]

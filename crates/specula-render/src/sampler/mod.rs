@@ -74,6 +74,15 @@ pub trait PixelSampler: Sampler + Send {
     fn start_pixel(&mut self, pixel: u64);
     /// Continue sample `sample` (< spp) of the current pixel at dimension `dimension`.
     fn start_sample(&mut self, sample: u32, dimension: u32);
+    /// Start the pixel with linear index `pixel` for its samples from `first` on: a renderer
+    /// that takes a pixel's samples in two passes (adaptive sampling) starts it twice. The
+    /// samplers whose values are a function of the sample index need nothing more than
+    /// [`PixelSampler::start_pixel`]; `independent`, one stream per pixel, starts another
+    /// stream so that the second pass does not repeat the first.
+    fn start_pixel_from(&mut self, pixel: u64, first: u32) {
+        let _ = first;
+        self.start_pixel(pixel);
+    }
 }
 
 /// Which sampler.
@@ -97,6 +106,13 @@ impl SamplerKind {
         "ldsampler",
         "sobol",
     ];
+
+    /// Whether the sampler is progressive: sample i of a pixel does not depend on how many
+    /// samples the pixel takes, and any prefix is well distributed (`independent`, `sobol`).
+    /// Adaptive sampling needs it; the stratified designs fix their strata by the count.
+    pub fn progressive(self) -> bool {
+        matches!(self, SamplerKind::Independent | SamplerKind::Sobol)
+    }
 
     pub fn parse(name: &str) -> Option<Self> {
         Some(match name {

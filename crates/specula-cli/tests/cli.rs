@@ -1092,6 +1092,16 @@ fn render_with_another_sampler_and_aov_channels() {
     }
     let o = run(&["--sampler", "sobol", "--spp", "5"], &out);
     assert!(stdout(&o).contains("at 5 spp (sobol)"), "{}", stdout(&o));
+    // adaptive sampling with the AOV channels; the scene's stratified sampler is refused
+    let o = run(&["--sampler", "sobol", "--spp", "16", "--adaptive"], &out);
+    assert!(
+        stdout(&o).contains("at 16 spp (sobol, adaptive)"),
+        "{}",
+        stdout(&o)
+    );
+    let o = run(&["--spp", "16", "--adaptive"], &out);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("progressive sampler"), "{}", stderr(&o));
     let o = run(&["--sampler", "halton"], &out);
     assert!(!o.status.success());
     assert!(

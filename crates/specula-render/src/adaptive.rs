@@ -163,10 +163,18 @@ fn adaptive_with<S: PixelSampler>(
                 aov_films: Vec::new(),
                 counters: Default::default(),
                 complete: false,
-                stats: Vec::new(),
+                errors: Vec::new(),
             }
         };
-        let alpha = pilot_share(&scene.film.filter, &counts, fw, fh, n0);
+        let mut alpha = pilot_share(&scene.film.filter, &counts, fw, fh, n0);
+        if !second.complete {
+            // interrupted: where the second pass left nothing, the pilot alone
+            for (a, &w) in alpha.iter_mut().zip(second.film.weights()) {
+                if w == 0.0 {
+                    *a = 1.0;
+                }
+            }
+        }
         let (rgb, overflowed) = blend(
             &pilot.film.develop_counting(),
             &second.film.develop_counting(),
@@ -226,33 +234,29 @@ fn blend(
     (out, overflowed.max(*p_over).max(*q_over))
 }
 
-/// Each pixel's relative squared error at the pilot's sample count, from its two half means.
-fn pixel_errors(pilot: &Pass) -> Vec<f32> {
-    pilot
-        .stats
-        .par_iter()
-        .map(|s: &PixelStats| {
-            let (na, nb) = (s.n[0] as f32, s.n[1] as f32);
-            if na == 0.0 || nb == 0.0 {
-                return 0.0;
-            }
-            let n = na + nb;
-            let mut e = 0.0;
-            for c in 0..3 {
-                let (a, b) = (s.sum[0][c] / na, s.sum[1][c] / nb);
-                let m = (s.sum[0][c] + s.sum[1][c]) / n;
-                // the variance of A − B is 4× that of the mean (equal halves)
-                let err2 = (a - b) * (a - b) / 4.0;
-                e += err2 / (m * m + RELATIVE_EPSILON);
-            }
-            let e = e / 3.0;
-            if e.is_finite() {
-                e
-            } else {
-                0.0
-            }
-        })
-        .collect()
+impl PixelStats {
+    /// The pixel's relative squared error at the pilot's sample count, from its two half
+    /// means A and B: |A − B|²/4 ÷ (m² + ε) averaged over the channels (m = the pixel's mean);
+    /// 0 where a half has no finite sample or the value is not finite.
+    pub(crate) fn relative_error(&self) -> f32 {
+        let (na, nb) = (self.n[0] as f32, self.n[1] as f32);
+        if na == 0.0 || nb == 0.0 {
+            return 0.0;
+        }
+        let mut e = 0.0;
+        for c in 0..3 {
+            let (a, b) = (self.sum[0][c] / na, self.sum[1][c] / nb);
+            let m = (self.sum[0][c] + self.sum[1][c]) / (na + nb);
+            // the variance of A − B is 4× that of the mean (equal halves)
+            e += (a - b) * (a - b) / 4.0 / (m * m + RELATIVE_EPSILON);
+        }
+        let e = e / 3.0;
+        if e.is_finite() {
+            e
+        } else {
+            0.0
+        }
+    }
 }
 
 /// A (2r + 1)² box filter over a `w` × `h` image (clamped at the borders: each output is the
@@ -285,7 +289,7 @@ fn smooth(v: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
 /// [n₀ + 1, 16·spp] and scaled (bisection) so that Σ nⱼ = spp × pixels. Rounded with the
 /// remainder carried along the scan, so the total is kept to within one sample.
 fn allocate(pilot: &Pass, w: usize, h: usize, spp: u32, n0: u32) -> Vec<u32> {
-    let error = smooth(&pixel_errors(pilot), w, h, SMOOTH_RADIUS);
+    let error = smooth(&pilot.errors, w, h, SMOOTH_RADIUS);
     let mut score: Vec<f32> = error.iter().map(|&e| e.max(0.0).sqrt()).collect();
     for _ in 0..SMOOTH_RADIUS {
         score = spread(&score, w, h, 0.5);
@@ -415,6 +419,25 @@ mod tests {
         assert_eq!(pilot_spp(64), 16);
         assert_eq!(pilot_spp(100), 16);
         assert_eq!(pilot_spp(128), 32);
+    }
+
+    #[test]
+    fn relative_error_from_half_means() {
+        let mut s = PixelStats::default();
+        assert_eq!(s.relative_error(), 0.0); // no samples: no information
+                                             // halves of 2 samples with means 1 and 3 in every channel: |A − B|²/4 = 1, m = 2
+        s.sum = [[2.0; 3], [6.0; 3]];
+        s.n = [2, 2];
+        let want = 1.0 / (4.0 + RELATIVE_EPSILON);
+        assert!((s.relative_error() - want).abs() < 1e-7);
+        // equal halves: no error seen; a black pixel with noise: ÷ ε
+        s.sum = [[4.0; 3], [4.0; 3]];
+        assert_eq!(s.relative_error(), 0.0);
+        s.sum = [[0.2, 0.0, 0.0], [-0.2, 0.0, 0.0]];
+        let want = (0.1f32 * 0.1) / RELATIVE_EPSILON / 3.0;
+        assert!((s.relative_error() - want).abs() < 1e-6);
+        s.sum[0][1] = f32::INFINITY;
+        assert_eq!(s.relative_error(), 0.0);
     }
 
     #[test]

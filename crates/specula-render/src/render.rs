@@ -97,8 +97,9 @@ pub(crate) struct Pass {
     pub aov_films: Vec<Film>,
     pub counters: Counters,
     pub complete: bool,
-    /// [`PixelStats`] per film pixel (row-major), when the pass gathered them.
-    pub stats: Vec<PixelStats>,
+    /// Each film pixel's relative error estimate ([`PixelStats::relative_error`], row-major),
+    /// when the pass gathered statistics.
+    pub errors: Vec<f32>,
 }
 
 /// Settings of one pass: the sample count the sampler is built for (a progressive sampler's
@@ -346,7 +347,8 @@ pub(crate) fn render_pass<S: PixelSampler, P: Fn(usize) -> PixelSamples + Sync>(
                 &mut stats,
             );
             progress(done.fetch_add(1, Ordering::Relaxed) + 1);
-            Some((r, stats))
+            let errors: Vec<f32> = stats.iter().map(PixelStats::relative_error).collect();
+            Some((r, errors))
         })
         .collect::<Vec<_>>();
     let mut pass = Pass {
@@ -354,20 +356,20 @@ pub(crate) fn render_pass<S: PixelSampler, P: Fn(usize) -> PixelSamples + Sync>(
         aov_films: vec![scene.film.clone(); aov_count.div_ceil(3)],
         counters: Counters::default(),
         complete: true,
-        stats: vec![PixelStats::default(); settings.stats_half.map_or(0, |_| fw * fh)],
+        errors: vec![0.0; settings.stats_half.map_or(0, |_| fw * fh)],
     };
     for (b, &(x0, y0)) in blocks.into_iter().zip(&tiles) {
         match b {
-            Some(((blocks, c), stats)) => {
+            Some(((blocks, c), errors)) => {
                 pass.film.merge(&blocks.image);
                 for (f, b) in pass.aov_films.iter_mut().zip(&blocks.aovs) {
                     f.merge(b);
                 }
                 pass.counters.add(&c);
                 let w = size.min(fw - x0);
-                for (k, row) in stats.chunks_exact(w.max(1)).enumerate() {
+                for (k, row) in errors.chunks_exact(w.max(1)).enumerate() {
                     let at = (y0 + k) * fw + x0;
-                    pass.stats[at..at + w].copy_from_slice(row);
+                    pass.errors[at..at + w].copy_from_slice(row);
                 }
             }
             None => pass.complete = false,

@@ -38,9 +38,9 @@
 //! or `independent`); below 8 samples per pixel it renders uniformly (a pilot of fewer than two
 //! samples cannot measure anything).
 
-use crate::film::RFilter;
+use crate::film::{Film, RFilter};
 use crate::render::{
-    in_pool, output, render_pass, tiles, Pass, PassSettings, PixelSamples, PixelStats,
+    in_pool, output, render_pass, render_with, tiles, Pass, PassSettings, PixelSamples, PixelStats,
     RenderOptions, RenderOutput, TILE,
 };
 use crate::sampler::{Independent, PixelSampler, SamplerKind, Sobol};
@@ -93,37 +93,20 @@ fn adaptive_with<S: PixelSampler>(
     stop: &AtomicBool,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> RenderOutput {
-    let start = Instant::now();
     let spp = opts.spp.max(1);
+    if spp < MIN_SPP {
+        return render_with::<S>(scene, opts, stop, progress);
+    }
+    let start = Instant::now();
     let (fw, fh) = (scene.film.width, scene.film.height);
     let ntiles = tiles(scene, TILE).len();
     let small = tiles(scene, SMALL_TILE).len();
-    let uniform = |n: u32| {
-        move |_| PixelSamples {
-            first: 0,
-            count: n,
-            weight: 1.0,
-        }
-    };
-    if spp < MIN_SPP {
-        let settings = PassSettings {
-            sampler_spp: spp,
-            differential_spp: spp,
-            seed: opts.seed,
-            stats_half: None,
-            tile: TILE,
-        };
-        let pass = in_pool(opts.threads, || {
-            render_pass::<S, _>(scene, settings, &uniform(spp), stop, &|n| {
-                progress(n, ntiles)
-            })
-        });
-        let aovs = pass.aov_films.iter().map(|f| f.develop()).collect();
-        let (film, counters, complete) =
-            (pass.film.develop_counting(), pass.counters, pass.complete);
-        return output(scene, film, aovs, counters, start, complete, spp);
-    }
     let n0 = pilot_spp(spp);
+    let pilot_plan = |_| PixelSamples {
+        first: 0,
+        count: n0,
+        weight: 1.0,
+    };
     let settings = PassSettings {
         sampler_spp: spp.saturating_mul(MAX_FACTOR),
         differential_spp: spp,
@@ -132,7 +115,7 @@ fn adaptive_with<S: PixelSampler>(
         tile: TILE,
     };
     in_pool(opts.threads, || {
-        let pilot = render_pass::<S, _>(scene, settings, &uniform(n0), stop, &|n| {
+        let pilot = render_pass::<S, _>(scene, settings, &pilot_plan, stop, &|n| {
             progress(n, 2 * ntiles)
         });
         let counts = if pilot.complete {
@@ -179,18 +162,16 @@ fn adaptive_with<S: PixelSampler>(
             &pilot.film.develop_counting(),
             &second.film.develop_counting(),
             &alpha,
-            3,
         );
         let aovs = pilot
             .aov_films
             .iter()
             .enumerate()
             .map(|(k, p)| {
-                let q = second
-                    .aov_films
-                    .get(k)
-                    .map_or_else(|| p.develop_counting(), |q| q.develop_counting());
-                blend(&p.develop_counting(), &q, &alpha, 3).0
+                // no second pass (interrupted pilot): α = 1, the pilot alone
+                let p = p.develop_counting();
+                let q = second.aov_films.get(k).map(Film::develop_counting);
+                blend(&p, q.as_ref().unwrap_or(&p), &alpha).0
             })
             .collect();
         let mut counters = pilot.counters;
@@ -207,27 +188,25 @@ fn adaptive_with<S: PixelSampler>(
     })
 }
 
-/// α·P + (1 − α)·Q per pixel (`channels` values each); a pixel that overflowed in either film
-/// is black and counted.
+/// α·P + (1 − α)·Q per pixel of two developed RGB images; a pixel that overflowed in either
+/// film is black and counted.
 fn blend(
     (p, p_over): &(Vec<f32>, usize),
     (q, q_over): &(Vec<f32>, usize),
     alpha: &[f32],
-    channels: usize,
 ) -> (Vec<f32>, usize) {
     let mut out = vec![0.0f32; p.len()];
     let mut overflowed = 0;
-    for (j, &a) in alpha.iter().enumerate() {
-        let r = j * channels..(j + 1) * channels;
-        let (pp, qq) = (&p[r.clone()], &q[r.clone()]);
-        for ((o, &x), &y) in out[r].iter_mut().zip(pp).zip(qq) {
-            *o = a * x + (1.0 - a) * y;
+    let pixels = out
+        .chunks_exact_mut(3)
+        .zip(p.chunks_exact(3))
+        .zip(q.chunks_exact(3));
+    for (((o, p), q), &a) in pixels.zip(alpha) {
+        for c in 0..3 {
+            o[c] = a * p[c] + (1.0 - a) * q[c];
         }
-        if !out[j * channels..(j + 1) * channels]
-            .iter()
-            .all(|v| v.is_finite())
-        {
-            out[j * channels..(j + 1) * channels].fill(0.0);
+        if !o.iter().all(|v| v.is_finite()) {
+            o.fill(0.0);
             overflowed += 1;
         }
     }
@@ -424,8 +403,9 @@ mod tests {
     #[test]
     fn relative_error_from_half_means() {
         let mut s = PixelStats::default();
-        assert_eq!(s.relative_error(), 0.0); // no samples: no information
-                                             // halves of 2 samples with means 1 and 3 in every channel: |A − B|²/4 = 1, m = 2
+        // no samples: no information
+        assert_eq!(s.relative_error(), 0.0);
+        // halves of 2 samples with means 1 and 3 in every channel: |A − B|²/4 = 1, m = 2
         s.sum = [[2.0; 3], [6.0; 3]];
         s.n = [2, 2];
         let want = 1.0 / (4.0 + RELATIVE_EPSILON);

@@ -411,7 +411,7 @@ pub(crate) fn output(
     }
 }
 
-fn render_with<S: PixelSampler>(
+pub(crate) fn render_with<S: PixelSampler>(
     scene: &Scene,
     opts: &RenderOptions,
     stop: &AtomicBool,

@@ -357,10 +357,24 @@ impl Scene {
             sp.wavelengths = wl.copied();
             let flags = bsdf.flags();
 
+            // the random numbers in the order they have always been drawn (light, then
+            // BSDF); the light is sampled first and the BSDF sampled before the light sample
+            // is evaluated, so that the CPU overlaps the light sampler's table lookups
+            // (cache misses on a large environment map) with the BSDF's arithmetic
+            let smooth = flags.intersects(specula_bsdf::LobeFlags::SMOOTH);
+            let u_light = rng.next_2d();
+            let u1 = rng.next_1d();
+            let u2 = rng.next_2d();
+            let light = if smooth {
+                self.sample_light(si.p, u_light)
+            } else {
+                None
+            };
+            let sampled = bsdf.sample(&ctx, &sp, wi, u1, u2);
+
             // next-event estimation
-            if flags.intersects(specula_bsdf::LobeFlags::SMOOTH) {
-                let u = rng.next_2d();
-                if let Some(ls) = self.sample_light(si.p, u) {
+            if smooth {
+                if let Some(ls) = light {
                     let wo = si.sh_frame.to_local(ls.wi);
                     let (f, bsdf_pdf) = bsdf.eval_pdf(&ctx, &sp, wi, wo);
                     if !f.is_black() {
@@ -382,15 +396,10 @@ impl Scene {
                         }
                     }
                 }
-            } else {
-                // keep the random sequence aligned regardless of the material
-                rng.next_2d();
             }
 
             // BSDF sampling
-            let u1 = rng.next_1d();
-            let u2 = rng.next_2d();
-            let Some(bs) = bsdf.sample(&ctx, &sp, wi, u1, u2) else {
+            let Some(bs) = sampled else {
                 break;
             };
             let d = si.sh_frame.to_world(bs.wo).normalize();
@@ -421,9 +430,21 @@ impl Scene {
                 throughput /= q;
             }
             counters.rays += 1;
+            self.prefetch_infinite(ray.d);
             next = self.intersect(&ray);
         }
         result
+    }
+
+    /// Asks the cache for what evaluating the environment maps along `d` will read, should
+    /// the ray about to be traced escape (see [`crate::emitters::Envmap::prefetch`]).
+    #[inline]
+    fn prefetch_infinite(&self, d: Vec3) {
+        for &li in &self.infinite_lights {
+            if let Light::Other(crate::emitters::Emitter::Envmap(e)) = &self.lights[li as usize] {
+                e.prefetch(d);
+            }
+        }
     }
 }
 

@@ -48,7 +48,7 @@ ratios measured in one run). SPECULA_EXE overrides the path of the `specula` bin
 target/release/specula). `--threads` is passed to Specula only (0: all cores); Mitsuba uses
 all cores (except in --scaling, where both get the thread count of the row).
 """
-import argparse, json, os, re, subprocess, sys, time, pathlib
+import argparse, json, os, re, statistics, subprocess, sys, time, pathlib
 
 root = pathlib.Path(__file__).resolve().parent.parent
 shared = root.parent / "shared" / "scenes"
@@ -273,28 +273,37 @@ def table(header, rows):
 
 
 def section_throughput(a, mem):
-    print(f"### Throughput ({a.spp} spp; M samples/s; best of {a.repeat})\n")
+    print(f"### Throughput ({a.spp} spp; M samples/s; best of {a.repeat}, the two renderers "
+          "alternating)\n")
     rows = []
     for name in a.scenes.split(","):
         scene = scene_path(name)
-        runs = [specula_run(scene, defines=[f"spp={a.spp}"], threads=a.threads)[0]
-                for _ in range(a.repeat)]
+        # Specula and Mitsuba take turns, so that a drift in the machine's speed (up to 1.6×
+        # within an hour on the development machine) reaches both; the last column is the
+        # median of the ratios of each turn's pair of runs
+        runs, ms = [], []
+        for _ in range(a.repeat):
+            runs.append(specula_run(scene, defines=[f"spp={a.spp}"], threads=a.threads)[0])
+            if a.mitsuba:
+                ms.append(mitsuba_run(scene, a.spp))
         sp = max(r["samples"] / r["render"] for r in runs)
         proc = max(r["samples"] / r["wall"] for r in runs)
         mem[("specula", name)] = max(r["rss"] for r in runs)
-        ml = None
-        if a.mitsuba:
-            ms = [mitsuba_run(scene, a.spp) for _ in range(a.repeat)]
-            if all(ms):
-                ml = dict(render=max(m["samples"] / m["render"] for m in ms),
-                          process=max(m["samples"] / m["process"] for m in ms))
-                mem[("mitsuba", name)] = max(m["rss"] for m in ms)
+        ml, pair = None, None
+        if a.mitsuba and all(ms):
+            ml = dict(render=max(m["samples"] / m["render"] for m in ms),
+                      process=max(m["samples"] / m["process"] for m in ms))
+            mem[("mitsuba", name)] = max(m["rss"] for m in ms)
+            pair = statistics.median((r["samples"] / r["wall"]) / (m["samples"] / m["render"])
+                                     for r, m in zip(runs, ms))
         r0 = runs[0]
         ratio = f"{proc / ml['render']:.2f}" if ml else "n/a"
         rows.append([name, f"{r0['w']}×{r0['h']}", f"{sp / 1e6:.3f}", f"{proc / 1e6:.3f}",
-                     f_ms(ml and ml["render"] / 1e6), f_ms(ml and ml["process"] / 1e6), ratio])
+                     f_ms(ml and ml["render"] / 1e6), f_ms(ml and ml["process"] / 1e6), ratio,
+                     f"{pair:.2f}" if pair else "n/a"])
     table(["scene", "size", "Specula render", "Specula process", "Mitsuba llvm render",
-           "Mitsuba llvm process", "Specula process / Mitsuba render"], rows)
+           "Mitsuba llvm process", "Specula process / Mitsuba render",
+           "same, median of the turns' ratios"], rows)
 
 
 def startup_scenes(quick):

@@ -23,7 +23,9 @@ Sections (`--all` runs them all; each has its own flag):
   --throughput   cbox, meshes, veach_mis at 256 spp (`--spp`): Specula render-only and whole
                  process samples/s beside Mitsuba `llvm_ad_rgb`'s render call (kernels
                  compiled by an earlier render of the same size) and its whole process (Python
-                 start, import, load, JIT compilation and the first render).
+                 start, import, load, JIT compilation and the first render). The two take
+                 turns (`--repeat` N turns); the ratio is given from the best runs and as the
+                 median of each turn's ratio (steadier when the machine's speed drifts).
   --startup      Specula's start-up (everything before the first sample, from
                  `specula render --timings`, best of 2, or of `--repeat` N when larger;
                  process CPU: the least of the runs) for every loadable scene of

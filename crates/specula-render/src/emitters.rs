@@ -1219,17 +1219,22 @@ pub fn light_spectrum(n: &Node, name: &str) -> Result<Option<EmissionSpectrum>> 
 
 #[cfg(test)]
 mod tests {
-    /// The guided search returns exactly the whole-CDF binary search's bin and offset, on
-    /// CDFs with empty bins, flat runs, steps and a single bin.
-    #[test]
-    fn guided_cdf_search_is_exact() {
-        let mut seed = 1u64;
-        let mut rnd = move || {
+    /// Uniform numbers in [0, 1) from a 64-bit LCG seeded with `seed` (the tests' fixed
+    /// sequences).
+    fn lcg(mut seed: u64) -> impl FnMut() -> f32 {
+        move || {
             seed = seed
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
             (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        }
+    }
+
+    /// The guided search returns exactly the whole-CDF binary search's bin and offset, on
+    /// CDFs with empty bins, flat runs, steps and a single bin.
+    #[test]
+    fn guided_cdf_search_is_exact() {
+        let mut rnd = lcg(1);
         let mut cases: Vec<Vec<f64>> =
             vec![vec![1.0], vec![0.0, 1.0], vec![1.0, 0.0, 0.0, 0.0, 0.0]];
         for n in [2usize, 3, 5, 7, 16, 33, 100, 513] {
@@ -1598,13 +1603,7 @@ mod tests {
         let to_world = Mat4::from_rotation_y(0.7) * Mat4::from_rotation_x(0.3);
         let e = Envmap::new(&img, false, 1.0, &to_world).unwrap();
         let mut dirs = vec![Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
-        let mut seed = 7u64;
-        let mut rnd = move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = lcg(7);
         for _ in 0..200_000 {
             let (z, phi) = (2.0 * rnd() - 1.0, 2.0 * PI * rnd());
             let r = (1.0 - z * z).max(0.0).sqrt();

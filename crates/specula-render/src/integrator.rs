@@ -373,27 +373,25 @@ impl Scene {
             let sampled = bsdf.sample(&ctx, &sp, wi, u1, u2);
 
             // next-event estimation
-            if smooth {
-                if let Some(ls) = light {
-                    let wo = si.sh_frame.to_local(ls.wi);
-                    let (f, bsdf_pdf) = bsdf.eval_pdf(&ctx, &sp, wi, wo);
-                    if !f.is_black() {
-                        let o = offset_ray_origin(si.p, si.n_geo, ls.wi);
-                        let t_max = if ls.dist.is_finite() {
-                            ls.dist * (1.0 - SHADOW_EPSILON)
+            // (`light` is None for a material without smooth lobes)
+            if let Some(ls) = light {
+                let wo = si.sh_frame.to_local(ls.wi);
+                let (f, bsdf_pdf) = bsdf.eval_pdf(&ctx, &sp, wi, wo);
+                if !f.is_black() {
+                    let o = offset_ray_origin(si.p, si.n_geo, ls.wi);
+                    let t_max = if ls.dist.is_finite() {
+                        ls.dist * (1.0 - SHADOW_EPSILON)
+                    } else {
+                        f32::INFINITY
+                    };
+                    counters.rays += 1;
+                    if !self.occluded(&Ray { o, d: ls.wi, t_max }) {
+                        let w = if ls.is_delta {
+                            1.0
                         } else {
-                            f32::INFINITY
+                            mis(ls.pdf, bsdf_pdf)
                         };
-                        counters.rays += 1;
-                        if !self.occluded(&Ray { o, d: ls.wi, t_max }) {
-                            let w = if ls.is_delta {
-                                1.0
-                            } else {
-                                mis(ls.pdf, bsdf_pdf)
-                            };
-                            result +=
-                                throughput * f * self.light_weight(&ls, wl) * (wo.z.abs() * w);
-                        }
+                        result += throughput * f * self.light_weight(&ls, wl) * (wo.z.abs() * w);
                     }
                 }
             }

@@ -159,6 +159,18 @@ impl RFilter {
         }
     }
 
+    /// `eval((x.0 + i) − x.1)` for i = 0..4 in lanes 0..4 and `eval((y.0 + i) − y.1)` in lanes
+    /// 4..8: [`RFilter::eval8`]'s lanes for two axes of 4 taps each.
+    #[inline(always)]
+    fn eval_xy4(&self, x: (f32, f32), y: (f32, f32)) -> [f32; 8] {
+        let mut d = [0f32; 8];
+        for i in 0..4 {
+            d[i] = (x.0 + i as f32) - x.1;
+            d[i + 4] = (y.0 + i as f32) - y.1;
+        }
+        self.eval_lanes(d)
+    }
+
     /// `eval((first + i) − p)` for i = 0..8, computed lane by lane as [`RFilter::eval`]
     /// computes it (bit-identical weights), in a form the compiler vectorises.
     #[inline(always)]
@@ -168,6 +180,13 @@ impl RFilter {
             // first + i is an exact integer, as (x0 + i) as f32 is
             *v = (first + i as f32) - p;
         }
+        self.eval_lanes(x)
+    }
+
+    /// `eval` of each of 8 offsets, lane by lane (bit-identical to [`RFilter::eval`]), in a
+    /// form the compiler vectorises.
+    #[inline(always)]
+    fn eval_lanes(&self, x: [f32; 8]) -> [f32; 8] {
         match self {
             RFilter::Gaussian { coeff, .. } => {
                 let x2 = x.map(|x| x * x);
@@ -299,13 +318,40 @@ impl ImageBlock {
         let nx = (x1 - x0 + 1) as usize;
         let ny = (y1 - y0 + 1) as usize;
         let taps = (px, py, x0 as usize, y0 as usize, nx, ny);
-        if nx <= 8 && ny <= 8 {
-            // the common case (Gaussians up to σ = 0.875): 8 weights per axis at once
+        if nx <= 4 && ny <= 4 {
+            // the commonest case (Mitsuba's default Gaussian, σ = 0.5, radius 2: 4 × 4 taps
+            // unless a sample lies exactly on a pixel's edge): both axes' weights at once
+            self.put_taps4(taps, v);
+        } else if nx <= 8 && ny <= 8 {
+            // Gaussians up to σ = 0.875: 8 weights per axis at once
             self.put_taps8(taps, v);
         } else if nx <= MAX_TAPS && ny <= MAX_TAPS {
             self.put_taps::<MAX_TAPS>(taps, v);
         } else {
             self.put_wide(px, py, (x0, y0, x1, y1), v);
+        }
+    }
+
+    /// [`Self::put_taps`] for up to 4 × 4 pixels: the 4 x and 4 y weights are evaluated
+    /// together as one 8-lane polynomial (the same operations as [`RFilter::eval`], so the same
+    /// weights bit for bit), then each pixel takes one vector multiply-add.
+    #[inline(always)]
+    fn put_taps4(
+        &mut self,
+        (px, py, x0, y0, nx, ny): (f32, f32, usize, usize, usize, usize),
+        v: Vec4,
+    ) {
+        let ew = self.stored_size().0;
+        let w = self.filter.eval_xy4((x0 as f32, px), (y0 as f32, py));
+        let (wx, wy) = w.split_at(4);
+        for (k, &wy) in wy[..ny].iter().enumerate() {
+            if wy == 0.0 {
+                continue;
+            }
+            let row = (y0 + k) * ew + x0;
+            for (d, &w) in self.data[row..row + nx].iter_mut().zip(&wx[..nx]) {
+                *d += v * (w * wy);
+            }
         }
     }
 
@@ -573,6 +619,50 @@ mod tests {
                 let w = f.eval8(first, p);
                 for (i, &w) in w.iter().enumerate() {
                     assert_eq!(w.to_bits(), f.eval((first + i as f32) - p).to_bits());
+                }
+                let (fy, py) = (first + 7.0, first + 7.0 + rng.next_f32() * 4.0);
+                let w = f.eval_xy4((first, p), (fy, py));
+                for i in 0..4 {
+                    assert_eq!(w[i].to_bits(), f.eval((first + i as f32) - p).to_bits());
+                    assert_eq!(w[i + 4].to_bits(), f.eval((fy + i as f32) - py).to_bits());
+                }
+            }
+        }
+    }
+
+    /// Every splat path (4 × 4, 8 × 8 and the general one) leaves each stored pixel exactly
+    /// `value · (wx · wy)` with [`RFilter::eval`]'s weights, inside the block and where the
+    /// footprint is cut by its edges.
+    #[test]
+    fn splats_are_the_product_of_eval_weights_bit_for_bit() {
+        let mut rng = Pcg32::new(17, 4);
+        for f in [
+            RFilter::default_gaussian(),
+            RFilter::gaussian(0.8),
+            RFilter::gaussian(2.0),
+        ] {
+            let film = Film::new(24, 20, f);
+            let mut b = film.new_block(4, 3, 12, 10);
+            let (ew, _) = b.stored_size();
+            let bo = b.border as f32;
+            for _ in 0..300 {
+                let p = Vec2::new(rng.next_f32() * 24.0, rng.next_f32() * 20.0);
+                let v = Rgb::new(rng.next_f32(), 3.0, 0.25);
+                b.clear();
+                b.put(p, v);
+                for (k, d) in b.data.iter().enumerate() {
+                    // stored pixel k's centre relative to the sample, in the block's frame
+                    let sx = (k % ew) as f32 + 0.5 - bo + 4.0;
+                    let sy = (k / ew) as f32 + 0.5 - bo + 3.0;
+                    let (px, py) = (p.x + (bo - 4.0 - 0.5), p.y + (bo - 3.0 - 0.5));
+                    let wx = f.eval((k % ew) as f32 - px);
+                    let wy = f.eval((k / ew) as f32 - py);
+                    let want = if (sx - p.x).abs() <= f.radius() && (sy - p.y).abs() <= f.radius() {
+                        rgb1(v) * (wx * wy)
+                    } else {
+                        Vec4::ZERO
+                    };
+                    assert_eq!(*d, want, "filter {f:?}, sample {p}, stored pixel {k}");
                 }
             }
         }

@@ -477,12 +477,27 @@ fn check_len(path: &Path, width: usize, height: usize, rgb: &[f32]) -> Result<()
 /// Writes float32 RGB OpenEXR (the format of Mitsuba's `hdrfilm` output). `rgb` holds
 /// `width·height` linear RGB triples, row-major, top row first.
 pub fn write_exr(path: &Path, width: usize, height: usize, rgb: &[f32]) -> Result<()> {
+    use exr::prelude::*;
     check_len(path, width, height, rgb)?;
-    exr::prelude::write_rgb_file(path, width, height, |x, y| {
+    let channels = SpecificChannels::rgb(|Vec2(x, y)| {
         let i = (y * width + x) * 3;
         (rgb[i], rgb[i + 1], rgb[i + 2])
-    })
-    .map_err(|e| SceneError::file(path, format!("cannot write OpenEXR image: {e}")))
+    });
+    Image::from_encoded_channels((width, height), exr_encoding(), channels)
+        .write()
+        .to_file(path)
+        .map_err(|e| SceneError::file(path, format!("cannot write OpenEXR image: {e}")))
+}
+
+/// The `exr` crate's fast lossless encoding (RLE, 64 × 64 tiles) with the tiles stored in
+/// increasing order: its parallel compressor then writes them sorted, so the same image always
+/// gives the same file, byte for byte (with the default unspecified order the tiles land in
+/// the order their compression finished).
+fn exr_encoding() -> exr::prelude::Encoding {
+    exr::prelude::Encoding {
+        line_order: exr::prelude::LineOrder::Increasing,
+        ..exr::prelude::Encoding::FAST_LOSSLESS
+    }
 }
 
 /// Writes float32 OpenEXR with R, G, B and `extra` channels (name, `width·height` values
@@ -525,7 +540,7 @@ pub fn write_exr_with_channels(
     let layer = Layer::new(
         (width, height),
         LayerAttributes::default(),
-        Encoding::FAST_LOSSLESS,
+        exr_encoding(),
         channels,
     );
     Image::from_layer(layer)
@@ -669,6 +684,37 @@ mod tests {
         assert_eq!(img.data, rgb);
         let i = (2 * w + 3) * 3;
         assert_eq!(img.rgb(3, 2), [rgb[i], rgb[i + 1], rgb[i + 2]]);
+    }
+
+    /// An image of many tiles (compressed in parallel) is written as the same bytes every
+    /// time, its tiles in increasing order, with and without extra channels.
+    #[test]
+    fn exr_files_are_deterministic() {
+        let (w, h) = (700, 300);
+        let rgb = ramp(w, h);
+        let depth: Vec<f32> = (0..w * h).map(|i| (i % 977) as f32).collect();
+        let (a, b) = (tmp("det-a.exr"), tmp("det-b.exr"));
+        for extra in [vec![], vec![("depth.T".to_string(), depth)]] {
+            let mut first = None;
+            for _ in 0..4 {
+                for p in [&a, &b] {
+                    write_exr_with_channels(p, w, h, &rgb, &extra).unwrap();
+                }
+                let (x, y) = (std::fs::read(&*a).unwrap(), std::fs::read(&*b).unwrap());
+                assert_eq!(x, y);
+                assert_eq!(*first.get_or_insert(x.clone()), x);
+                let meta = exr::meta::MetaData::read_from_file(&*a, false).unwrap();
+                assert_eq!(
+                    meta.headers[0].line_order,
+                    exr::prelude::LineOrder::Increasing
+                );
+                assert_eq!(meta.headers[0].chunk_count, 11 * 5);
+            }
+            write_exr(&a, w, h, &rgb).unwrap();
+            write_exr(&b, w, h, &rgb).unwrap();
+            assert_eq!(std::fs::read(&*a).unwrap(), std::fs::read(&*b).unwrap());
+            assert_eq!(read_image(&a).unwrap().0.data, rgb);
+        }
     }
 
     #[test]

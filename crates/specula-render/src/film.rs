@@ -651,7 +651,8 @@ mod tests {
                 b.clear();
                 b.put(p, v);
                 for (k, d) in b.data.iter().enumerate() {
-                    // stored pixel k's centre relative to the sample, in the block's frame
+                    // film coordinates of stored pixel k's centre (the block starts at film
+                    // pixel (4, 3), its border before it)
                     let sx = (k % ew) as f32 + 0.5 - bo + 4.0;
                     let sy = (k / ew) as f32 + 0.5 - bo + 3.0;
                     let (px, py) = (p.x + (bo - 4.0 - 0.5), p.y + (bo - 3.0 - 0.5));

@@ -122,7 +122,6 @@ pub fn spawn_ray_to(p: Vec3, n: Vec3, target: Vec3) -> Ray {
 
 #[derive(Clone, Copy, Debug)]
 enum PrimShape {
-    Triangle([Vec3; 3]),
     Sphere {
         center: Vec3,
         radius: f32,
@@ -146,11 +145,28 @@ enum PrimShape {
     },
 }
 
+/// A primitive kept by the build: shape `geom` of the scene and, for a mesh, its triangle
+/// `index` (whose vertices the packets copy from the mesh when they are made), or the
+/// analytic shape `analytic` of the build's list ([`NOT_ANALYTIC`] for a triangle). Twelve
+/// bytes, whatever the shape: a million triangles' records take 12 MB while the tree is built.
 #[derive(Clone, Copy, Debug)]
 struct Prim {
-    shape: PrimShape,
     geom: u32,
     index: u32,
+    analytic: u32,
+}
+
+/// [`Prim::analytic`] of a triangle.
+const NOT_ANALYTIC: u32 = u32::MAX;
+
+impl Prim {
+    /// The vertices of triangle primitive `self` of `geoms`.
+    fn triangle(&self, geoms: &[Geometry]) -> [Vec3; 3] {
+        match &geoms[self.geom as usize] {
+            Geometry::Mesh(m) => m.triangle(self.index as usize),
+            _ => unreachable!("a triangle primitive lies on a mesh"),
+        }
+    }
 }
 
 /// Children per node.
@@ -316,15 +332,6 @@ struct BNode {
 const NO_CHILD: u32 = u32::MAX;
 
 impl BNode {
-    /// A node not built yet.
-    const PLACEHOLDER: BNode = BNode {
-        lo: Vec3::ZERO,
-        hi: Vec3::ZERO,
-        kids: [NO_CHILD, NO_CHILD],
-        count: 0,
-        tris_only: false,
-    };
-
     fn half_area(&self) -> f32 {
         let e = (self.hi - self.lo).max(Vec3::ZERO);
         e.x * e.y + e.y * e.z + e.z * e.x
@@ -350,8 +357,10 @@ impl Bvh {
         let mut kept: Vec<Prim> = Vec::with_capacity(total);
         let mut pb: Vec<PrimBox> = Vec::with_capacity(total);
         let mut groups: Vec<Arc<ShapeGroup>> = Vec::new();
-        // Drops primitives that can never be hit or would poison the build.
-        let mut keep = |p: Prim, lo: Vec3, hi: Vec3| {
+        let mut shapes: Vec<PrimShape> = Vec::new();
+        // Drops primitives that can never be hit or would poison the build; an analytic
+        // `shape` is listed.
+        let mut keep = |geom: u32, index: u32, shape: Option<PrimShape>, lo: Vec3, hi: Vec3| {
             if !(lo.is_finite() && hi.is_finite()) {
                 return;
             }
@@ -362,13 +371,19 @@ impl Bvh {
             // (clamped: padding a box near ±f32::MAX must not make it infinite)
             let lo = (lo - pad).max(Vec3::splat(f32::MIN));
             let hi = (hi + pad).min(Vec3::splat(f32::MAX));
-            pb.push(PrimBox::new(
-                lo,
-                hi,
-                matches!(p.shape, PrimShape::Triangle(_)),
-                kept.len() as u32,
-            ));
-            kept.push(p);
+            pb.push(PrimBox::new(lo, hi, shape.is_none(), kept.len() as u32));
+            let analytic = match shape {
+                Some(shape) => {
+                    shapes.push(shape);
+                    shapes.len() as u32 - 1
+                }
+                None => NOT_ANALYTIC,
+            };
+            kept.push(Prim {
+                geom,
+                index,
+                analytic,
+            });
         };
         for (g, geom) in geoms.iter().enumerate() {
             let g = g as u32;
@@ -376,48 +391,27 @@ impl Bvh {
                 Geometry::Mesh(m) => {
                     for i in 0..m.indices.len() {
                         let v = m.triangle(i);
-                        let prim = Prim {
-                            shape: PrimShape::Triangle(v),
-                            geom: g,
-                            index: i as u32,
-                        };
-                        keep(prim, v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2]));
+                        let (lo, hi) = (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2]));
+                        keep(g, i as u32, None, lo, hi);
                     }
                 }
                 Geometry::Sphere(s) => {
                     let (center, radius) = (s.center, s.radius.abs());
-                    let prim = Prim {
-                        shape: PrimShape::Sphere { center, radius },
-                        geom: g,
-                        index: 0,
-                    };
-                    keep(
-                        prim,
-                        center - Vec3::splat(radius),
-                        center + Vec3::splat(radius),
-                    );
+                    let shape = PrimShape::Sphere { center, radius };
+                    let (lo, hi) = (center - Vec3::splat(radius), center + Vec3::splat(radius));
+                    keep(g, 0, Some(shape), lo, hi);
                 }
                 Geometry::Disk(d) => {
                     let m = Mat3::from_mat4(d.to_object);
                     let t = d.to_object.w_axis.truncate();
-                    let prim = Prim {
-                        shape: PrimShape::Disk { m, t },
-                        geom: g,
-                        index: 0,
-                    };
                     let (lo, hi) = geom.bounds();
-                    keep(prim, lo, hi);
+                    keep(g, 0, Some(PrimShape::Disk { m, t }), lo, hi);
                 }
                 Geometry::Cylinder(c) => {
                     let m = Mat3::from_mat4(c.to_object);
                     let t = c.to_object.w_axis.truncate();
-                    let prim = Prim {
-                        shape: PrimShape::Cylinder { m, t },
-                        geom: g,
-                        index: 0,
-                    };
                     let (lo, hi) = geom.bounds();
-                    keep(prim, lo, hi);
+                    keep(g, 0, Some(PrimShape::Cylinder { m, t }), lo, hi);
                 }
                 // one primitive per instance, on the slot of its first group shape
                 Geometry::Instance(inst) if inst.member == 0 => {
@@ -430,13 +424,8 @@ impl Bvh {
                     } as u32;
                     let m = Mat3::from_mat4(inst.to_object);
                     let t = inst.to_object.w_axis.truncate();
-                    let prim = Prim {
-                        shape: PrimShape::Instance { m, t, group },
-                        geom: g,
-                        index: 0,
-                    };
                     let (lo, hi) = geom.bounds();
-                    keep(prim, lo, hi);
+                    keep(g, 0, Some(PrimShape::Instance { m, t, group }), lo, hi);
                 }
                 Geometry::Instance(_) => {}
             }
@@ -451,7 +440,7 @@ impl Bvh {
         }
         let (tree, order) = build_tree(&mut pb);
         drop(pb);
-        out.collapse(&tree, &order, &kept);
+        out.collapse(&tree, &order, &kept, &shapes, geoms);
         out
     }
 
@@ -519,7 +508,14 @@ impl Bvh {
     }
 
     /// Turns the binary tree into 8-wide nodes and packets, depth-first.
-    fn collapse(&mut self, tree: &[BNode], order: &[u32], prims: &[Prim]) {
+    fn collapse(
+        &mut self,
+        tree: &[BNode],
+        order: &[u32],
+        prims: &[Prim],
+        shapes: &[PrimShape],
+        geoms: &[Geometry],
+    ) {
         let leaf_like = |b: &BNode| b.is_leaf() || (b.tris_only && b.count <= LEAF_TRIS);
         // (binary node, parent node, slot): inner nodes still to emit
         let mut todo: Vec<(u32, u32, usize)> = vec![(0, u32::MAX, 0)];
@@ -581,19 +577,15 @@ impl Bvh {
                         walk.push(wn.kids[0]);
                     }
                 }
-                let code = if let [p] = leaf_prims[..] {
-                    match prims[p as usize].shape {
-                        PrimShape::Triangle(_) => self.push_packets(&leaf_prims, prims),
-                        shape => {
-                            let code = LEAF | ANALYTIC | self.analytic.len() as u32;
-                            self.analytic.push(shape);
-                            let pr = &prims[p as usize];
-                            self.analytic_ids.push((pr.geom, pr.index));
-                            code
-                        }
+                let code = match leaf_prims[..] {
+                    [p] if prims[p as usize].analytic != NOT_ANALYTIC => {
+                        let pr = &prims[p as usize];
+                        let code = LEAF | ANALYTIC | self.analytic.len() as u32;
+                        self.analytic.push(shapes[pr.analytic as usize]);
+                        self.analytic_ids.push((pr.geom, pr.index));
+                        code
                     }
-                } else {
-                    self.push_packets(&leaf_prims, prims)
+                    _ => self.push_packets(&leaf_prims, prims, geoms),
                 };
                 self.nodes[index as usize].child[s] = code;
             }
@@ -603,7 +595,7 @@ impl Bvh {
     }
 
     /// Packs triangles into consecutive packets; returns the leaf reference.
-    fn push_packets(&mut self, tris: &[u32], prims: &[Prim]) -> u32 {
+    fn push_packets(&mut self, tris: &[u32], prims: &[Prim], geoms: &[Geometry]) -> u32 {
         let first = self.packets.len();
         for chunk in tris.chunks(LANES) {
             let mut p = TriPacket {
@@ -612,10 +604,8 @@ impl Bvh {
             let mut ids = [(u32::MAX, u32::MAX); LANES];
             for (lane, &t) in chunk.iter().enumerate() {
                 let pr = &prims[t as usize];
-                let PrimShape::Triangle(v) = pr.shape else {
-                    unreachable!("packets hold triangles only")
-                };
-                for (vi, vert) in v.iter().enumerate() {
+                debug_assert_eq!(pr.analytic, NOT_ANALYTIC, "packets hold triangles only");
+                for (vi, vert) in pr.triangle(geoms).iter().enumerate() {
                     for a in 0..3 {
                         p.v[vi][a][lane] = vert[a];
                     }
@@ -703,16 +693,14 @@ impl PrimBox {
     }
 }
 
-/// [`build_tree`] over `boxes` (finite, one per primitive of `prims`).
+/// [`build_tree`] over `boxes` (finite; `tris[i]`: whether primitive i is a triangle).
 #[cfg(test)]
-fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> (Vec<BNode>, Vec<u32>) {
+fn build_binary(boxes: &[(Vec3, Vec3)], tris: &[bool]) -> (Vec<BNode>, Vec<u32>) {
     let mut pb: Vec<PrimBox> = boxes
         .iter()
-        .zip(prims)
+        .zip(tris)
         .enumerate()
-        .map(|(i, (&(lo, hi), p))| {
-            PrimBox::new(lo, hi, matches!(p.shape, PrimShape::Triangle(_)), i as u32)
-        })
+        .map(|(i, (&(lo, hi), &tri))| PrimBox::new(lo, hi, tri, i as u32))
         .collect();
     build_tree(&mut pb)
 }
@@ -720,10 +708,14 @@ fn build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> (Vec<BNode>, Vec<u32>
 /// The binary build tree over the primitives' build records (at least one), root first,
 /// parents before children, counts filled in, and the primitives in the order its leaves
 /// refer to. Leaves hold one primitive, or a range of at most [`LEAF_TRIS`] triangles (which
-/// `collapse` makes one leaf anyway: it is not split further). The tree has 2n − 1 slots
-/// (a subtree of m primitives owns 2m − 1 consecutive ones, so parallel parts write
-/// disjoint slices); slots after a subtree's last node stay placeholders, which no node
-/// refers to.
+/// `collapse` makes one leaf anyway: it is not split further), listed depth-first, first
+/// child first. The build writes into 2n − 1 slots (a subtree of m primitives owns 2m − 1
+/// consecutive ones, so parallel parts write disjoint slices) that are never initialised
+/// beforehand: the slots after a subtree's last node (most of them, since leaves hold up to
+/// [`LEAF_TRIS`] triangles) are never written, so their memory is never touched (a fresh
+/// allocation of that size is mapped lazily), and the nodes are then copied out in order.
+/// Each node's primitive count and triangles-only flag are known when it is made (its range
+/// and that range's bounds), so no pass over the slots sums them.
 ///
 /// Top-down binned SAH: each node bins its primitives' centroids into [`bins_for`] slots
 /// along each axis of the centroid bounds and splits at the cheapest bin boundary (cost: area ×
@@ -735,15 +727,24 @@ fn build_tree(pb: &mut [PrimBox]) -> (Vec<BNode>, Vec<u32>) {
     // a binary tree with one primitive per leaf has 2n − 1 nodes, and each subtree of m
     // primitives at most 2m − 1 (root first): every part of the build writes its own slice
     // of one array
-    let mut tree = vec![BNode::PLACEHOLDER; 2 * n - 1];
-    build_range(pb, 0, None, 0, &mut tree, 0);
-    // children come after their parents: sum up in reverse (placeholders look like leaves
-    // and are skipped; leaves have their counts)
-    for i in (0..tree.len()).rev() {
-        if !tree[i].is_leaf() {
-            let [a, b] = tree[i].kids.map(|k| k as usize);
-            tree[i].count = tree[a].count + tree[b].count;
-            tree[i].tris_only = tree[a].tris_only && tree[b].tris_only;
+    let mut slots: Box<[MaybeUninit<BNode>]> = Box::new_uninit_slice(2 * n - 1);
+    build_range(pb, 0, None, 0, &mut slots, 0);
+    // the nodes reachable from the root, depth-first: (slot, parent in `tree`, which child)
+    let mut tree: Vec<BNode> = Vec::with_capacity(n.div_ceil(2));
+    let mut todo: Vec<(u32, u32, usize)> = vec![(0, NO_CHILD, 0)];
+    while let Some((slot, parent, which)) = todo.pop() {
+        // SAFETY: the root's slot and every slot a written node names as a child were
+        // written by `build_range` (a node is written before its children are made, and
+        // each child's slot is set in its parent when the child is written)
+        let node = unsafe { slots[slot as usize].assume_init_read() };
+        let index = tree.len() as u32;
+        if parent != NO_CHILD {
+            tree[parent as usize].kids[which] = index;
+        }
+        tree.push(node);
+        if !node.is_leaf() {
+            todo.push((node.kids[1], index, 1));
+            todo.push((node.kids[0], index, 0));
         }
     }
     (tree, pb.iter().map(|p| p.index).collect())
@@ -761,6 +762,8 @@ struct RangeBounds {
     hi: Vec3A,
     clo: DVec3,
     chi: DVec3,
+    /// Whether every primitive is a triangle.
+    tris: bool,
 }
 
 impl RangeBounds {
@@ -769,6 +772,7 @@ impl RangeBounds {
         hi: Vec3A::NEG_INFINITY,
         clo: DVec3::INFINITY,
         chi: DVec3::NEG_INFINITY,
+        tris: true,
     };
 
     #[inline]
@@ -777,6 +781,7 @@ impl RangeBounds {
         self.hi = self.hi.max(p.hi);
         self.clo = dmin(self.clo, p.c);
         self.chi = dmax(self.chi, p.c);
+        self.tris &= p.tri;
     }
 
     fn of(range: &[PrimBox]) -> RangeBounds {
@@ -812,9 +817,15 @@ fn node_and_split(
         };
         return (leaf, None);
     }
-    let RangeBounds { lo, hi, clo, chi } = bounds.unwrap_or_else(|| RangeBounds::of(range));
+    let RangeBounds {
+        lo,
+        hi,
+        clo,
+        chi,
+        tris,
+    } = bounds.unwrap_or_else(|| RangeBounds::of(range));
     // A range of at most LEAF_TRIS triangles becomes one leaf (see `collapse`) as it stands.
-    if range.len() <= LEAF_TRIS as usize && range.iter().all(|p| p.tri) {
+    if range.len() <= LEAF_TRIS as usize && tris {
         let leaf = BNode {
             lo: lo.into(),
             hi: hi.into(),
@@ -824,14 +835,14 @@ fn node_and_split(
         };
         return (leaf, None);
     }
-    let split = split(range, clo, chi, depth);
     let node = BNode {
         lo: lo.into(),
         hi: hi.into(),
         kids: [NO_CHILD, NO_CHILD],
-        count: 0,
-        tris_only: true,
+        count: range.len() as u32,
+        tris_only: tris,
     };
+    let split = split(range, clo, chi, depth);
     (node, Some(split))
 }
 
@@ -846,7 +857,7 @@ fn build_range(
     first: u32,
     bounds: Option<RangeBounds>,
     depth: u32,
-    out: &mut [BNode],
+    out: &mut [MaybeUninit<BNode>],
     base: u32,
 ) {
     debug_assert_eq!(out.len(), 2 * range.len() - 1);
@@ -859,7 +870,7 @@ fn build_range(
         let (oa, ob) = rest.split_at_mut(2 * mid - 1);
         let second = base + 1 + oa.len() as u32;
         node.kids = [base + 1, second];
-        root[0] = node;
+        root[0].write(node);
         rayon::join(
             || build_range(a, first, ba, depth + 1, oa, base + 1),
             || build_range(b, first + mid as u32, bb, depth + 1, ob, second),
@@ -873,10 +884,11 @@ fn build_range(
     while let Some((s, e, parent, which, depth, bounds)) = todo.pop() {
         let index = next;
         if parent != NO_CHILD {
-            out[parent as usize].kids[which] = base + index as u32;
+            // SAFETY: a parent is written before its children are queued
+            unsafe { out[parent as usize].assume_init_mut() }.kids[which] = base + index as u32;
         }
         let (node, split) = node_and_split(&mut range[s..e], first + s as u32, bounds, depth);
-        out[index] = node;
+        out[index].write(node);
         next += 1;
         if let Some((mid, parts)) = split {
             let [ba, bb] = parts.map_or([None, None], |[a, b]| [Some(a), Some(b)]);
@@ -1824,7 +1836,6 @@ impl Bvh {
     fn intersect_analytic(&self, code: u32, ray: &Ray, t_max: f32) -> Option<AnalyticHit> {
         let with0 = |(t, u, v)| (t, u, v, (0, 0));
         match &self.analytic[(code & !(LEAF | ANALYTIC)) as usize] {
-            PrimShape::Triangle(v) => TriRay::new(ray).intersect(v, t_max).map(with0),
             PrimShape::Sphere { center, radius } => Some((
                 intersect_sphere(ray, *center, *radius, t_max)?,
                 0.0,
@@ -2269,12 +2280,12 @@ mod tests {
     /// The binary build as it was before the start-up work (bounds recomputed per node, a
     /// box and a centroid array, every bin swept), sequential, compact: the reference that
     /// the faster build must reproduce node for node (as [`canonical`] lists them).
-    fn reference_build_binary(boxes: &[(Vec3, Vec3)], prims: &[Prim]) -> (Vec<BNode>, Vec<u32>) {
+    fn reference_build_binary(boxes: &[(Vec3, Vec3)], tris: &[bool]) -> (Vec<BNode>, Vec<u32>) {
         let cent: Vec<DVec3> = boxes
             .iter()
             .map(|(lo, hi)| (lo.as_dvec3() + hi.as_dvec3()) * 0.5)
             .collect();
-        let tri = |i: u32| matches!(prims[i as usize].shape, PrimShape::Triangle(_));
+        let tri = |i: u32| tris[i as usize];
         let mut range: Vec<u32> = (0..boxes.len() as u32).collect();
         let mut tree: Vec<BNode> = vec![];
         let mut todo = vec![(0usize, range.len(), NO_CHILD, 0usize, 0u32)];
@@ -2444,9 +2455,14 @@ mod tests {
     #[test]
     fn build_matches_the_reference_build() {
         let mut rng = Rng(3);
-        let mut cases: Vec<Vec<PrimShape>> = vec![];
+        #[derive(Clone, Copy)]
+        enum TestPrim {
+            Tri([Vec3; 3]),
+            Sphere { center: Vec3, radius: f32 },
+        }
+        let mut cases: Vec<Vec<TestPrim>> = vec![];
         let tri = |rng: &mut Rng, c: Vec3, s: f32| {
-            PrimShape::Triangle([0; 3].map(|_| c + rng.in_box(Vec3::splat(-s), Vec3::splat(s))))
+            TestPrim::Tri([0; 3].map(|_| c + rng.in_box(Vec3::splat(-s), Vec3::splat(s))))
         };
         // uniform soup, large
         cases.push(
@@ -2463,13 +2479,13 @@ mod tests {
                 .map(|i| {
                     let c = Vec3::new((i % 7) as f32, (i % 3) as f32 * 0.5, 0.0);
                     if i % 50 == 0 {
-                        PrimShape::Sphere {
+                        TestPrim::Sphere {
                             center: c,
                             radius: 0.25,
                         }
                     } else {
                         let v = [c, c + Vec3::X * 0.1, c + Vec3::Y * 0.1];
-                        PrimShape::Triangle(v)
+                        TestPrim::Tri(v)
                     }
                 })
                 .collect(),
@@ -2479,7 +2495,7 @@ mod tests {
             (0..400)
                 .map(|i| {
                     let x = 1.05f32.powi(i);
-                    PrimShape::Triangle([
+                    TestPrim::Tri([
                         Vec3::new(x, 0.0, 0.0),
                         Vec3::new(x, 1.0, 0.0),
                         Vec3::new(x, 0.0, 1.0),
@@ -2491,39 +2507,33 @@ mod tests {
             cases.push((0..n).map(|_| tri(&mut rng, Vec3::ZERO, 2.0)).collect());
         }
         for shapes in cases {
-            let prims: Vec<Prim> = shapes
-                .iter()
-                .enumerate()
-                .map(|(i, &shape)| Prim {
-                    shape,
-                    geom: 0,
-                    index: i as u32,
-                })
-                .collect();
             let boxes: Vec<(Vec3, Vec3)> = shapes
                 .iter()
                 .map(|s| match *s {
-                    PrimShape::Triangle(v) => {
+                    TestPrim::Tri(v) => {
                         let (lo, hi) = (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2]));
                         let pad = Vec3::splat(lo.abs().max(hi.abs()).max_element() * 4e-7 + 1e-30);
                         (lo - pad, hi + pad)
                     }
-                    PrimShape::Sphere { center, radius } => {
+                    TestPrim::Sphere { center, radius } => {
                         (center - Vec3::splat(radius), center + Vec3::splat(radius))
                     }
-                    _ => unreachable!(),
                 })
                 .collect();
-            let want = canonical(&reference_build_binary(&boxes, &prims));
-            let got = canonical(&build_binary(&boxes, &prims));
-            assert_eq!(got.len(), want.len(), "{} primitives", prims.len());
+            let tris: Vec<bool> = shapes
+                .iter()
+                .map(|s| matches!(s, TestPrim::Tri(_)))
+                .collect();
+            let want = canonical(&reference_build_binary(&boxes, &tris));
+            let got = canonical(&build_binary(&boxes, &tris));
+            assert_eq!(got.len(), want.len(), "{} primitives", shapes.len());
             for (i, (g, w)) in got.iter().zip(&want).enumerate() {
                 assert_eq!(
                     g,
                     w,
                     "node {i} of {} ({} primitives)",
                     want.len(),
-                    prims.len()
+                    shapes.len()
                 );
             }
         }

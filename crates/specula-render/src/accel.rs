@@ -1890,6 +1890,19 @@ impl Bvh {
         }
     }
 
+    /// Asks the cache for packet `p`'s entry of `packet_ids`.
+    #[inline(always)]
+    fn prefetch_ids(&self, p: usize) {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `p` is a packet index (in bounds); a prefetch never faults
+        unsafe {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            _mm_prefetch::<_MM_HINT_T0>(self.packet_ids.as_ptr().add(p) as *const i8);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = p;
+    }
+
     /// Intersects an analytic shape.
     #[inline(never)]
     fn intersect_analytic(&self, code: u32, ray: &Ray, t_max: f32) -> Option<AnalyticHit> {
@@ -2055,9 +2068,14 @@ impl Bvh {
                     }
                 }
                 *t_max = out.t[lane];
+                let code = pi * LANES + lane;
+                // the hit's shape and primitive ids live in an array of their own, which
+                // only the final hit reads (`make_hit`): ask for its line now, so that it
+                // arrives while the rest of the tree is walked rather than after
+                self.prefetch_ids(code / LANES);
                 // lanes 4–7 of a pair are those of the next packet
                 *best = Some((
-                    (pi * LANES + lane) as u32,
+                    code as u32,
                     false,
                     out.b1[lane],
                     out.b2[lane],

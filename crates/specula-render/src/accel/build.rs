@@ -1,0 +1,542 @@
+//! The binary build tree of the BVH: top-down binned SAH over the primitives' build records
+//! (see the module documentation of [`crate::accel`]), which `Bvh::collapse` turns into
+//! 8-wide nodes.
+
+use super::*;
+use glam::{DVec3, Vec3, Vec3A};
+use std::mem::MaybeUninit;
+
+/// A node of the binary build tree. A leaf holds one primitive, or up to [`LEAF_TRIS`]
+/// triangles: the `count` entries of the build's primitive order from `kids[0]` on.
+#[derive(Clone, Copy)]
+pub(super) struct BNode {
+    pub(super) lo: Vec3,
+    pub(super) hi: Vec3,
+    /// Children (inner nodes), or `[first, NO_CHILD]` for a leaf (`first`: its first entry in
+    /// the primitive order that [`build_tree`] returns).
+    pub(super) kids: [u32; 2],
+    /// Primitives in the subtree.
+    pub(super) count: u32,
+    /// Whether all of them are triangles.
+    pub(super) tris_only: bool,
+}
+
+pub(super) const NO_CHILD: u32 = u32::MAX;
+
+impl BNode {
+    pub(super) fn half_area(&self) -> f32 {
+        let e = (self.hi - self.lo).max(Vec3::ZERO);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+    pub(super) fn is_leaf(&self) -> bool {
+        self.kids[1] == NO_CHILD
+    }
+}
+
+/// Centroid bins per axis of the SAH build at most (see [`bins_for`]).
+pub(super) const BINS: usize = 32;
+/// Centroid bins per axis for a range of `n` primitives: [`BINS`] above 1024, 16 down to
+/// 33, 8 below. Small ranges leave most of 32 bins empty, and sweeping them costs as much as
+/// binning the primitives: with fewer bins the build of meshes.xml takes ~9 % fewer
+/// instructions, and the trees' SAH cost ([`Bvh::sah_cost`]) hardly changes (meshes.xml
+/// 8.2156 → 8.2195, bsdf_roughplastic_nopreserve 5.5015 → 5.4407).
+pub(super) fn bins_for(n: usize) -> usize {
+    if n <= 32 {
+        8
+    } else if n <= 1024 {
+        16
+    } else {
+        BINS
+    }
+}
+
+/// Subtrees deeper than this are split at the object median rather than by the surface area
+/// heuristic, which bounds the build at O(n log n) even where the heuristic keeps splitting
+/// off one primitive at a time (exponentially spaced geometry); ordinary scenes of millions
+/// of triangles stay well above it.
+pub(super) const MAX_SAH_DEPTH: u32 = 48;
+
+/// Surface area (halved) of a box, in double precision (no overflow for huge boxes).
+pub(super) fn half_area_f64(lo: Vec3, hi: Vec3) -> f64 {
+    let e = (hi.as_dvec3() - lo.as_dvec3()).max(DVec3::ZERO);
+    e.x * e.y + e.y * e.z + e.z * e.x
+}
+
+/// What the build reads of a primitive, in half a cache line: its (padded) box, with its
+/// index (the bits of `lo[3]`) and whether it is a triangle (`hi[3]` 1 or 0) in the boxes'
+/// fourth lanes, so that each corner is one aligned 16-byte load. The box's centroid, in
+/// double precision as the bins are placed, is computed from the corners where it is needed
+/// (the same bits every time: f32 → f64 is exact). The build partitions these records
+/// themselves (not indices to them), so each node's primitives lie consecutively in memory;
+/// 32 bytes a record instead of 64 with a stored centroid halve both the build's memory
+/// traffic and its peak memory (32 MB less for a million triangles).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(super) struct PrimBox {
+    lo: [f32; 4],
+    hi: [f32; 4],
+}
+
+/// The smaller of two centroids, per axis (no NaN is ever built: `f64::min` without its NaN
+/// handling).
+#[inline]
+fn dmin(a: DVec3, b: DVec3) -> DVec3 {
+    let m = |x: f64, y: f64| if y < x { y } else { x };
+    DVec3::new(m(a.x, b.x), m(a.y, b.y), m(a.z, b.z))
+}
+
+/// The larger of two centroids, per axis (see [`dmin`]).
+#[inline]
+fn dmax(a: DVec3, b: DVec3) -> DVec3 {
+    let m = |x: f64, y: f64| if y > x { y } else { x };
+    DVec3::new(m(a.x, b.x), m(a.y, b.y), m(a.z, b.z))
+}
+
+impl PrimBox {
+    /// The record of a primitive with the (padded, finite) box `lo..hi`.
+    #[inline]
+    pub(super) fn new(lo: Vec3, hi: Vec3, tri: bool, index: u32) -> PrimBox {
+        PrimBox {
+            lo: [lo.x, lo.y, lo.z, f32::from_bits(index)],
+            hi: [hi.x, hi.y, hi.z, if tri { 1.0 } else { 0.0 }],
+        }
+    }
+
+    /// A corner as a SIMD vector (its fourth lane carries the record's extra data, which
+    /// `Vec3A` arithmetic never mixes into x, y, z).
+    #[inline(always)]
+    fn corner(c: &[f32; 4]) -> Vec3A {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: SSE2 is part of the x86-64 baseline; `c` is 16-byte aligned (the
+            // record is 32-byte aligned and its corners lie at offsets 0 and 16)
+            unsafe { Vec3A::from(std::arch::x86_64::_mm_load_ps(c.as_ptr())) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            Vec3A::new(c[0], c[1], c[2])
+        }
+    }
+
+    #[inline(always)]
+    fn lo(&self) -> Vec3A {
+        Self::corner(&self.lo)
+    }
+
+    #[inline(always)]
+    fn hi(&self) -> Vec3A {
+        Self::corner(&self.hi)
+    }
+
+    /// The box's centroid along `axis`.
+    #[inline(always)]
+    fn c_axis(&self, axis: usize) -> f64 {
+        (self.lo[axis] as f64 + self.hi[axis] as f64) * 0.5
+    }
+
+    /// The box's centroid.
+    #[inline(always)]
+    fn c(&self) -> DVec3 {
+        DVec3::new(self.c_axis(0), self.c_axis(1), self.c_axis(2))
+    }
+
+    #[inline(always)]
+    fn tri(&self) -> bool {
+        self.hi[3] != 0.0
+    }
+
+    #[inline(always)]
+    fn index(&self) -> u32 {
+        self.lo[3].to_bits()
+    }
+}
+
+/// [`build_tree`] over `boxes` (finite; `tris[i]`: whether primitive i is a triangle).
+#[cfg(test)]
+pub(super) fn build_binary(boxes: &[(Vec3, Vec3)], tris: &[bool]) -> (Vec<BNode>, Vec<u32>) {
+    let mut pb: Vec<PrimBox> = boxes
+        .iter()
+        .zip(tris)
+        .enumerate()
+        .map(|(i, (&(lo, hi), &tri))| PrimBox::new(lo, hi, tri, i as u32))
+        .collect();
+    build_tree(&mut pb)
+}
+
+/// The binary build tree over the primitives' build records (at least one), root first,
+/// parents before children, counts filled in, and the primitives in the order its leaves
+/// refer to. Leaves hold one primitive, or a range of at most [`LEAF_TRIS`] triangles (which
+/// `collapse` makes one leaf anyway: it is not split further), listed depth-first, first
+/// child first. The build writes into 2n − 1 slots (a subtree of m primitives owns 2m − 1
+/// consecutive ones, so parallel parts write disjoint slices) that are never initialised
+/// beforehand: the slots after a subtree's last node (most of them, since leaves hold up to
+/// [`LEAF_TRIS`] triangles) are never written, so their memory is never touched (a fresh
+/// allocation of that size is mapped lazily), and the nodes are then copied out in order.
+/// Each node's primitive count and triangles-only flag are known when it is made (its range
+/// and that range's bounds), so no pass over the slots sums them.
+///
+/// Top-down binned SAH: each node bins its primitives' centroids into [`bins_for`] slots
+/// along each axis of the centroid bounds and splits at the cheapest bin boundary (cost: area ×
+/// count on each side). Primitives whose centroids coincide, and subtrees deeper than
+/// [`MAX_SAH_DEPTH`], are split at the object median; every split is a partition of an index
+/// range, so the whole build is O(n log n) with an explicit stack (no recursion).
+pub(super) fn build_tree(pb: &mut [PrimBox]) -> (Vec<BNode>, Vec<u32>) {
+    let n = pb.len();
+    // a binary tree with one primitive per leaf has 2n − 1 nodes, and each subtree of m
+    // primitives at most 2m − 1 (root first): every part of the build writes its own slice
+    // of one array
+    let mut slots: Box<[MaybeUninit<BNode>]> = Box::new_uninit_slice(2 * n - 1);
+    build_range(pb, 0, None, 0, &mut slots, 0);
+    // the nodes reachable from the root, depth-first: (slot, parent in `tree`, which child)
+    let mut tree: Vec<BNode> = Vec::with_capacity(n.div_ceil(2));
+    let mut todo: Vec<(u32, u32, usize)> = vec![(0, NO_CHILD, 0)];
+    while let Some((slot, parent, which)) = todo.pop() {
+        // SAFETY: the root's slot and every slot a written node names as a child were
+        // written by `build_range` (a node is written before its children are made, and
+        // each child's slot is set in its parent when the child is written)
+        let node = unsafe { slots[slot as usize].assume_init_read() };
+        let index = tree.len() as u32;
+        if parent != NO_CHILD {
+            tree[parent as usize].kids[which] = index;
+        }
+        tree.push(node);
+        if !node.is_leaf() {
+            todo.push((node.kids[1], index, 1));
+            todo.push((node.kids[0], index, 0));
+        }
+    }
+    (tree, pb.iter().map(PrimBox::index).collect())
+}
+
+/// Ranges at least this large build their two halves in parallel.
+pub(super) const PARALLEL_BUILD: usize = 1 << 14;
+
+/// The box bounds (`lo..hi`) and centroid bounds (`clo..chi`) of a set of primitives. Boxes
+/// and centroids are finite and never −0 (boxes are padded away from their coordinates), so
+/// these minima and maxima are the same bits whatever order the primitives come in.
+#[derive(Clone, Copy, Debug)]
+struct RangeBounds {
+    lo: Vec3A,
+    hi: Vec3A,
+    clo: DVec3,
+    chi: DVec3,
+    /// Whether every primitive is a triangle.
+    tris: bool,
+}
+
+impl RangeBounds {
+    const EMPTY: RangeBounds = RangeBounds {
+        lo: Vec3A::INFINITY,
+        hi: Vec3A::NEG_INFINITY,
+        clo: DVec3::INFINITY,
+        chi: DVec3::NEG_INFINITY,
+        tris: true,
+    };
+
+    #[inline]
+    fn add(&mut self, p: &PrimBox) {
+        self.lo = self.lo.min(p.lo());
+        self.hi = self.hi.max(p.hi());
+        let c = p.c();
+        self.clo = dmin(self.clo, c);
+        self.chi = dmax(self.chi, c);
+        self.tris &= p.tri();
+    }
+
+    fn of(range: &[PrimBox]) -> RangeBounds {
+        let mut b = RangeBounds::EMPTY;
+        for p in range {
+            b.add(p);
+        }
+        b
+    }
+}
+
+/// How a node's range is split: the length of the first part and, when the split computed
+/// them on the way, the bounds of both parts.
+type Split = (usize, Option<[RangeBounds; 2]>);
+
+/// The node over `range` (at least one primitive, the first at `first` in the primitive
+/// order; `bounds` its bounds when known) and its split; a single primitive, or at most
+/// [`LEAF_TRIS`] triangles, give a leaf and no split.
+fn node_and_split(
+    range: &mut [PrimBox],
+    first: u32,
+    bounds: Option<RangeBounds>,
+    depth: u32,
+) -> (BNode, Option<Split>) {
+    if range.len() == 1 {
+        let b = &range[0];
+        let leaf = BNode {
+            lo: b.lo().into(),
+            hi: b.hi().into(),
+            kids: [first, NO_CHILD],
+            count: 1,
+            tris_only: b.tri(),
+        };
+        return (leaf, None);
+    }
+    let RangeBounds {
+        lo,
+        hi,
+        clo,
+        chi,
+        tris,
+    } = bounds.unwrap_or_else(|| RangeBounds::of(range));
+    // A range of at most LEAF_TRIS triangles becomes one leaf (see `collapse`) as it stands.
+    if range.len() <= LEAF_TRIS as usize && tris {
+        let leaf = BNode {
+            lo: lo.into(),
+            hi: hi.into(),
+            kids: [first, NO_CHILD],
+            count: range.len() as u32,
+            tris_only: true,
+        };
+        return (leaf, None);
+    }
+    let node = BNode {
+        lo: lo.into(),
+        hi: hi.into(),
+        kids: [NO_CHILD, NO_CHILD],
+        count: range.len() as u32,
+        tris_only: tris,
+    };
+    let split = split(range, clo, chi, depth);
+    (node, Some(split))
+}
+
+/// The binary tree over the primitives `range` (root first, then the first part's subtree,
+/// then the second's; `first` the position of `range[0]` in the whole primitive order,
+/// `bounds` the range's bounds when known), written to `out` (its 2·len − 1 slots, the
+/// last ones left unused where leaves hold several triangles; `base` is the index of
+/// `out[0]` in the whole tree, which child indices refer to). Large ranges build their halves
+/// in parallel; the tree is the same whatever the number of threads.
+fn build_range(
+    range: &mut [PrimBox],
+    first: u32,
+    bounds: Option<RangeBounds>,
+    depth: u32,
+    out: &mut [MaybeUninit<BNode>],
+    base: u32,
+) {
+    debug_assert_eq!(out.len(), 2 * range.len() - 1);
+    if range.len() >= PARALLEL_BUILD {
+        let (mut node, split) = node_and_split(range, first, bounds, depth);
+        let (mid, parts) = split.expect("a large range splits");
+        let [ba, bb] = parts.map_or([None, None], |[a, b]| [Some(a), Some(b)]);
+        let (a, b) = range.split_at_mut(mid);
+        let (root, rest) = out.split_at_mut(1);
+        let (oa, ob) = rest.split_at_mut(2 * mid - 1);
+        let second = base + 1 + oa.len() as u32;
+        node.kids = [base + 1, second];
+        root[0].write(node);
+        rayon::join(
+            || build_range(a, first, ba, depth + 1, oa, base + 1),
+            || build_range(b, first + mid as u32, bb, depth + 1, ob, second),
+        );
+        return;
+    }
+    let mut next = 0usize;
+    // (first, end, parent, which child, depth, bounds)
+    let mut todo: Vec<(usize, usize, u32, usize, u32, Option<RangeBounds>)> =
+        vec![(0, range.len(), NO_CHILD, 0, depth, bounds)];
+    while let Some((s, e, parent, which, depth, bounds)) = todo.pop() {
+        let index = next;
+        if parent != NO_CHILD {
+            // SAFETY: a parent is written before its children are queued
+            unsafe { out[parent as usize].assume_init_mut() }.kids[which] = base + index as u32;
+        }
+        let (node, split) = node_and_split(&mut range[s..e], first + s as u32, bounds, depth);
+        out[index].write(node);
+        next += 1;
+        if let Some((mid, parts)) = split {
+            let [ba, bb] = parts.map_or([None, None], |[a, b]| [Some(a), Some(b)]);
+            todo.push((s + mid, e, index as u32, 1, depth + 1, bb));
+            todo.push((s, s + mid, index as u32, 0, depth + 1, ba));
+        }
+    }
+    debug_assert!(next <= out.len());
+}
+
+/// A centroid bin of the SAH build: the bounds of its primitives' boxes and their number.
+#[derive(Clone, Copy)]
+struct Bin {
+    lo: Vec3A,
+    hi: Vec3A,
+    n: u32,
+}
+
+impl Bin {
+    const EMPTY: Bin = Bin {
+        lo: Vec3A::INFINITY,
+        hi: Vec3A::NEG_INFINITY,
+        n: 0,
+    };
+}
+
+/// Reorders `range` (at least 2 primitives, centroid bounds `clo..chi`) into two non-empty
+/// parts: the length of the first and, for a SAH split, the bounds of both.
+fn split(range: &mut [PrimBox], clo: DVec3, chi: DVec3, depth: u32) -> Split {
+    let ext = chi - clo;
+    let axis = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
+    let median = |range: &mut [PrimBox]| {
+        let m = range.len() / 2;
+        if ext[axis] > 0.0 {
+            range.select_nth_unstable_by(m, |a, b| a.c_axis(axis).total_cmp(&b.c_axis(axis)));
+        }
+        (m, None)
+    };
+    // (`ext[axis] <= 0.0` would let a NaN extent through)
+    if ext[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || depth >= MAX_SAH_DEPTH {
+        return median(range);
+    }
+    // (the same quotient whether computed here or per primitive)
+    let nb = bins_for(range.len());
+    let scale: [f64; 3] = std::array::from_fn(|a| nb as f64 / ext[a]);
+    // (`as i64` then clamped: the same bin as `as usize` then `min(BINS − 1)` for every
+    // value, NaN included, in fewer instructions)
+    let bin_of = |c: f64, a: usize| -> usize {
+        let k = ((c - clo[a]) * scale[a]) as i64;
+        k.clamp(0, nb as i64 - 1) as usize
+    };
+    // best (cost, axis, first bin of the right side)
+    let mut best = (f64::INFINITY, usize::MAX, 0usize);
+    // one pass over the primitives bins them along all three axes
+    let mut bins = [[Bin::EMPTY; BINS]; 3];
+    let live: [bool; 3] =
+        std::array::from_fn(|a| ext[a].partial_cmp(&0.0) == Some(std::cmp::Ordering::Greater));
+    let mut add = |a: usize, p: &PrimBox| {
+        let b = &mut bins[a][bin_of(p.c_axis(a), a)];
+        b.lo = b.lo.min(p.lo());
+        b.hi = b.hi.max(p.hi());
+        b.n += 1;
+    };
+    if live == [true; 3] {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // the x and y bins of a centroid in one SSE2 operation each: the same
+            // subtraction and product as `bin_of`, truncated to i32, which equals its i64
+            // truncation here: centroids are means of f32 coordinates, so a positive
+            // extent is at least 2⁻¹⁵⁰, the scale is finite and every product lies in
+            // [0, BINS] (a little above at most: clamped)
+            // (the centroid's x and y as `PrimBox::c_axis` computes them: both corners
+            // widened exactly to f64, added, halved)
+            use std::arch::x86_64::{
+                _mm_add_pd, _mm_cvtps_pd, _mm_cvtsi128_si32, _mm_cvttpd_epi32, _mm_load_ps,
+                _mm_mul_pd, _mm_set1_pd, _mm_set_pd, _mm_shuffle_epi32, _mm_sub_pd,
+            };
+            // SAFETY (each block): SSE2 is part of the x86-64 baseline; the corners are
+            // 16-byte aligned (see `PrimBox::corner`)
+            let (clo_xy, scale_xy, half) = unsafe {
+                (
+                    _mm_set_pd(clo.y, clo.x),
+                    _mm_set_pd(scale[1], scale[0]),
+                    _mm_set1_pd(0.5),
+                )
+            };
+            let clamp = |k: i32| k.clamp(0, nb as i32 - 1) as usize;
+            for p in range.iter() {
+                let (kx, ky) = unsafe {
+                    let lo = _mm_cvtps_pd(_mm_load_ps(p.lo.as_ptr()));
+                    let hi = _mm_cvtps_pd(_mm_load_ps(p.hi.as_ptr()));
+                    let c = _mm_mul_pd(_mm_add_pd(lo, hi), half);
+                    let xy = _mm_mul_pd(_mm_sub_pd(c, clo_xy), scale_xy);
+                    let k = _mm_cvttpd_epi32(xy);
+                    (
+                        _mm_cvtsi128_si32(k),
+                        _mm_cvtsi128_si32(_mm_shuffle_epi32::<1>(k)),
+                    )
+                };
+                let (kx, ky) = (clamp(kx), clamp(ky));
+                let kz = clamp(((p.c_axis(2) - clo.z) * scale[2]) as i32);
+                let (plo, phi) = (p.lo(), p.hi());
+                for (b, k) in [(0, kx), (1, ky), (2, kz)] {
+                    let b = &mut bins[b][k];
+                    b.lo = b.lo.min(plo);
+                    b.hi = b.hi.max(phi);
+                    b.n += 1;
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        for p in range.iter() {
+            add(0, p);
+            add(1, p);
+            add(2, p);
+        }
+    } else {
+        for p in range.iter() {
+            for (a, &on) in live.iter().enumerate() {
+                if on {
+                    add(a, p);
+                }
+            }
+        }
+    }
+    for (a, bins) in bins.iter().enumerate() {
+        if !live[a] {
+            continue;
+        }
+        // right-to-left sweep: cost of the right side starting at bin k (NaN: empty); an
+        // empty bin changes nothing, so its cost is the one after it, bit for bit
+        let mut right = [0.0f64; BINS];
+        let (mut rlo, mut rhi, mut rn) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0u32);
+        let mut cost_right = f64::NAN;
+        for k in (1..nb).rev() {
+            if bins[k].n > 0 {
+                rlo = rlo.min(bins[k].lo);
+                rhi = rhi.max(bins[k].hi);
+                rn += bins[k].n;
+                cost_right = half_area_f64(rlo.into(), rhi.into()) * rn as f64;
+            }
+            right[k] = cost_right;
+        }
+        let (mut llo, mut lhi, mut ln) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0u32);
+        for k in 1..nb {
+            // after an empty bin both sides are those of the boundary before it: the same
+            // cost, which cannot be strictly better (small nodes leave most bins empty)
+            if bins[k - 1].n == 0 {
+                continue;
+            }
+            llo = llo.min(bins[k - 1].lo);
+            lhi = lhi.max(bins[k - 1].hi);
+            ln += bins[k - 1].n;
+            if ln == 0 || right[k].is_nan() {
+                continue;
+            }
+            let cost = half_area_f64(llo.into(), lhi.into()) * ln as f64 + right[k];
+            if cost < best.0 {
+                best = (cost, a, k);
+            }
+        }
+    }
+    if best.1 == usize::MAX {
+        return median(range);
+    }
+    let (_, a, k) = best;
+    // partition: bins below k first; the bounds of both parts on the way (their nodes need
+    // them: one pass over the primitives fewer per level)
+    let mut m = 0;
+    let mut parts = [RangeBounds::EMPTY; 2];
+    for j in 0..range.len() {
+        let p = &range[j];
+        if bin_of(p.c_axis(a), a) < k {
+            parts[0].add(p);
+            range.swap(m, j);
+            m += 1;
+        } else {
+            parts[1].add(p);
+        }
+    }
+    if m == 0 || m == range.len() {
+        // cannot happen (both sides counted non-empty), but never build an endless loop
+        return median(range);
+    }
+    (m, Some(parts))
+}

@@ -1,0 +1,483 @@
+//! Mitsuba's `envmap`: a lat-long environment image, importance-sampled.
+//!
+//! `envmap` maps a local direction d to lat-long coordinates
+//! u = atan2(d.x, −d.z)/2π, v = acos(d.y)/π (+y is up, v = 0 the zenith, u = 0 towards −z,
+//! u = ¼ towards +x). The image is padded with a copy of its first column and looked up
+//! *bilinearly* with pixel (x, y) sitting exactly at u = (x + ½)/W, v = y/(H − 1): the first
+//! and last rows lie on the poles. Radiance is that value × `scale`; `to_world` rotates the
+//! map (world direction = to_world · local direction).
+//!
+//! Importance sampling of `envmap` differs from Mitsuba's (a bilinear `Hierarchical2D` warp over
+//! the padded pixel grid) but is unbiased and consistent with [`Emitter::pdf_direction`]: the
+//! cells between four neighbouring pixels of the bilinear lookup are chosen with probability
+//! ∝ (mean luminance of their four corners) × (solid angle), marginal rows first, then the
+//! column; inside a cell directions are uniform in solid angle, so the pdf is constant per cell.
+//! That constant is the corners' mean luminance × W / (2π Σ weights) whatever the row (the band's
+//! solid angle cancels), so it is the mean of a density share each texel keeps beside its RGB: a
+//! lookup's radiance and pdf come from the same two cache lines, with no per-cell table.
+
+use super::*;
+
+/// Mitsuba's `envmap`: a lat-long environment image with luminance-based importance
+/// sampling.
+#[derive(Clone)]
+pub struct Envmap {
+    /// Resolution of the source image.
+    pub width: usize,
+    pub height: usize,
+    pub scale: f32,
+    /// Local → world rotation (and its inverse).
+    pub(super) to_world: Mat3,
+    pub(super) to_local: Mat3,
+    /// Per texel (`width + 1` columns, the last repeating the first, × `height` rows): linear
+    /// RGB and, in the fourth lane, its share of the sampling density: its luminance (clamped
+    /// to ≥ 0, non-finite as 0) × W / (2π Σ weights), a cell's pdf being the mean of its four
+    /// corners' (see the module docs; the factor is applied per texel, in f64, so that no
+    /// f32 factor can overflow for a very dark map). One aligned 16-byte load gives a texel,
+    /// and a cell's pdf comes from the texels its radiance reads (no table of its own to miss
+    /// in the cache).
+    pub(super) data: Vec<Vec4>,
+    /// cos θ of each pixel row (θ = π·y/(H − 1)).
+    pub(super) cos_theta: Vec<f32>,
+    /// Marginal CDF over the H − 1 cell rows (H entries, 0 … 1).
+    pub(super) row_cdf: Vec<f32>,
+    /// Per cell row, the conditional CDF over its W cells (W + 1 entries each).
+    pub(super) col_cdf: Vec<f32>,
+    /// Cutpoint guide tables ([`guide`]) of `row_cdf` and of each row of `col_cdf`
+    /// (`guide::buckets(W) + 1` entries each).
+    pub(super) row_guide: Vec<u32>,
+    pub(super) col_guide: Vec<u32>,
+}
+
+impl std::fmt::Debug for Envmap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Envmap")
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("scale", &self.scale)
+            .field("to_world", &self.to_world)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Picks the bin of a CDF (`n + 1` entries, 0 … 1) holding `u`, skipping empty bins, and
+/// returns it with `u` rescaled to [0, 1) within it: the binary search over the whole CDF
+/// that [`guide::sample`] reproduces (kept as its reference in the tests).
+#[cfg(test)]
+pub(super) fn sample_cdf(cdf: &[f32], u: f32) -> (usize, f32) {
+    let n = cdf.len() - 1;
+    let idx = cdf[1..n].partition_point(|&c| c <= u);
+    bin_offset(cdf, idx, u)
+}
+
+/// Cutpoint guide tables (Chen & Asau's method) for sampling a CDF: with m buckets, a value x
+/// falls in bucket b(x) = min(⌊x·m⌋, m − 1) (the same f32 operations when the table is built
+/// and when it is read, and non-decreasing in x), and entry k counts the CDF's interior entries
+/// in buckets below k. The interior entries before entry b(u) are then < u and those from entry
+/// b(u) + 1 on are > u, so the bin holding u is found among the few entries in u's bucket
+/// instead of over the whole CDF, with no division; it returns exactly what the binary search
+/// over the whole CDF returns (same bins, same images).
+pub(super) mod guide {
+    /// Buckets for a CDF of `n` bins: about four bins per bucket.
+    #[inline]
+    pub fn buckets(n: usize) -> usize {
+        n.div_ceil(4).max(1)
+    }
+
+    /// The bucket of `x` among `m` (`m` as f32 too).
+    #[inline]
+    pub(super) fn bucket(x: f32, m: usize, mf: f32) -> usize {
+        // `as usize` saturates: negative x gives 0
+        ((x * mf) as usize).min(m - 1)
+    }
+
+    /// Appends the guide (`buckets(n) + 1` entries) of a CDF of `n + 1` non-decreasing
+    /// entries.
+    pub fn build(cdf: &[f32], out: &mut Vec<u32>) {
+        let inner = &cdf[1..cdf.len() - 1];
+        let m = buckets(cdf.len() - 1);
+        let mf = m as f32;
+        let mut c = 0;
+        for k in 0..m {
+            while c < inner.len() && bucket(inner[c], m, mf) < k {
+                c += 1;
+            }
+            out.push(c as u32);
+        }
+        out.push(inner.len() as u32);
+    }
+
+    /// Picks the bin of `cdf` (`n + 1` entries, 0 … 1) holding `u`, skipping empty bins,
+    /// through its guide `start`; returns it with `u` rescaled to [0, 1) within it.
+    #[inline]
+    pub fn sample(cdf: &[f32], start: &[u32], u: f32) -> (usize, f32) {
+        let m = start.len() - 1;
+        let k = bucket(u, m, m as f32);
+        let (lo, hi) = (start[k] as usize, start[k + 1] as usize);
+        let idx = lo + cdf[1 + lo..1 + hi].partition_point(|&c| c <= u);
+        super::bin_offset(cdf, idx, u)
+    }
+}
+
+#[inline]
+fn bin_offset(cdf: &[f32], idx: usize, u: f32) -> (usize, f32) {
+    let (lo, hi) = (cdf[idx], cdf[idx + 1]);
+    let t = if hi > lo { (u - lo) / (hi - lo) } else { 0.5 };
+    (idx, t.clamp(0.0, 1.0 - f32::EPSILON / 2.0))
+}
+
+impl Envmap {
+    /// Builds the map from decoded pixels (`srgb`: values are sRGB-encoded and get
+    /// linearised). Errors are messages for the caller to attach to a file.
+    pub fn new(img: &Image, srgb: bool, scale: f32, to_world: &Mat4) -> Result<Self, String> {
+        let (w, h) = (img.width, img.height);
+        if w < 2 || h < 3 {
+            return Err(format!(
+                "the environment map resolution must be at least 2×3 pixels (got {w}×{h})"
+            ));
+        }
+        let lin = |v: f32| if srgb { srgb_to_linear(v) } else { v };
+        let pw = w + 1;
+        let mut data = vec![Vec4::ZERO; pw * h];
+        for y in 0..h {
+            for x in 0..pw {
+                let rgb = img.rgb(x % w, y);
+                let c = Rgb::new(lin(rgb[0]), lin(rgb[1]), lin(rgb[2]));
+                let l = c.luminance();
+                let l = if l.is_finite() { l.max(0.0) } else { 0.0 };
+                data[y * pw + x] = Vec4::new(c.0[0], c.0[1], c.0[2], l);
+            }
+        }
+        let lin3 = Mat3::from_mat4(*to_world);
+        let to_local = lin3.inverse();
+        if !to_local.is_finite() {
+            return Err("the envmap's to_world transform is singular".into());
+        }
+
+        // Sampling distribution over the (H − 1) × W cells of the bilinear lookup.
+        let cos_theta: Vec<f32> = (0..h)
+            .map(|y| (std::f64::consts::PI * y as f64 / (h - 1) as f64).cos() as f32)
+            .collect();
+        let lum: Vec<f64> = data.iter().map(|t| t.w as f64).collect();
+        let rows = h - 1;
+        let mut weights = vec![0.0f64; rows * w];
+        let mut row_sum = vec![0.0f64; rows];
+        for j in 0..rows {
+            let th0 = std::f64::consts::PI * j as f64 / rows as f64;
+            let th1 = std::f64::consts::PI * (j + 1) as f64 / rows as f64;
+            let band = th0.cos() - th1.cos();
+            for i in 0..w {
+                let avg = 0.25
+                    * (lum[j * pw + i]
+                        + lum[j * pw + i + 1]
+                        + lum[(j + 1) * pw + i]
+                        + lum[(j + 1) * pw + i + 1]);
+                let wt = avg * band;
+                weights[j * w + i] = wt;
+                row_sum[j] += wt;
+            }
+        }
+        let total: f64 = row_sum.iter().sum();
+        let mut row_cdf = vec![0.0f32; rows + 1];
+        let mut col_cdf = vec![0.0f32; rows * (w + 1)];
+        if total > 0.0 && total.is_finite() {
+            let mut acc = 0.0f64;
+            for j in 0..rows {
+                acc += row_sum[j];
+                // Exactly 1 once all the mass is in (the sums run in the same order), so
+                // trailing empty bins can never be drawn.
+                row_cdf[j + 1] = if acc >= total {
+                    1.0
+                } else {
+                    (acc / total) as f32
+                };
+                let cdf = &mut col_cdf[j * (w + 1)..(j + 1) * (w + 1)];
+                let mut a = 0.0f64;
+                for i in 0..w {
+                    a += weights[j * w + i];
+                    cdf[i + 1] = if row_sum[j] > 0.0 {
+                        if a >= row_sum[j] {
+                            1.0
+                        } else {
+                            (a / row_sum[j]) as f32
+                        }
+                    } else {
+                        (i + 1) as f32 / w as f32
+                    };
+                }
+                cdf[w] = 1.0;
+            }
+            row_cdf[rows] = 1.0;
+        }
+        // a cell's weight is its corners' mean luminance × its band's solid angle, so its
+        // solid-angle density is that mean × W / (2π Σ weights) in every row: each texel keeps
+        // its luminance times that factor (all 0 for a black map, which is never sampled)
+        let pdf_scale = if total > 0.0 && total.is_finite() {
+            w as f64 / (2.0 * std::f64::consts::PI * total)
+        } else {
+            0.0
+        };
+        for (t, &l) in data.iter_mut().zip(&lum) {
+            t.w = (l * pdf_scale) as f32;
+        }
+        let mut row_guide = vec![];
+        guide::build(&row_cdf, &mut row_guide);
+        let mut col_guide = Vec::with_capacity(rows * (guide::buckets(w) + 1));
+        for cdf in col_cdf.chunks_exact(w + 1) {
+            guide::build(cdf, &mut col_guide);
+        }
+        Ok(Envmap {
+            width: w,
+            height: h,
+            scale,
+            to_world: lin3,
+            to_local,
+            data,
+            cos_theta,
+            row_cdf,
+            col_cdf,
+            row_guide,
+            col_guide,
+        })
+    }
+
+    /// Lat-long coordinates of a local direction (Mitsuba's `direction_to_uv`).
+    #[inline]
+    pub(super) fn direction_to_uv(d: Vec3) -> Vec2 {
+        Vec2::new(
+            specula_bsdf::math::atan2(d.x, -d.z) * (0.5 / PI),
+            d.y.clamp(-1.0, 1.0).acos() * (1.0 / PI),
+        )
+    }
+
+    #[inline]
+    pub(super) fn texel(&self, index: usize) -> Rgb {
+        let t = self.data[index];
+        Rgb::new(t.x, t.y, t.z)
+    }
+
+    /// The solid-angle pdf of the sampling cell whose upper-left texel is `index`.
+    #[inline]
+    pub(super) fn cell_pdf_at(&self, index: usize) -> f32 {
+        let pw = self.width + 1;
+        let l = |k: usize| 0.25 * self.data[k].w;
+        (l(index) + l(index + 1)) + (l(index + pw) + l(index + pw + 1))
+    }
+
+    /// The sampling cell (row-major over (H − 1) × W) holding local direction `d`.
+    #[cfg(test)]
+    pub(super) fn cell(&self, d: Vec3) -> usize {
+        let i = self.bilinear_cell(Self::direction_to_uv(d)).0;
+        let pw = self.width + 1;
+        (i / pw) * self.width + i % pw
+    }
+
+    /// The solid-angle pdf of sampling cell `cell` (row-major over (H − 1) × W).
+    #[cfg(test)]
+    pub(super) fn cell_pdf(&self, cell: usize) -> f32 {
+        let (j, i) = (cell / self.width, cell % self.width);
+        self.cell_pdf_at(j * (self.width + 1) + i)
+    }
+
+    /// The bilinear lookup at lat-long `uv`: the index of the upper-left texel of its cell
+    /// and the weights of the right and lower texels.
+    #[inline]
+    pub(super) fn bilinear_cell(&self, uv: Vec2) -> (usize, Vec2) {
+        let (w, h) = (self.width, self.height);
+        let mut uv = uv;
+        uv.x -= 0.5 / w as f32;
+        uv.x -= uv.x.floor();
+        // Mitsuba also wraps v (`uv -= floor(uv)`), which would send the exact south pole
+        // (v = 1) to the north pole; its f32 acos never yields exactly 1 there (it returns
+        // the bottom row), so v is only clamped here.
+        uv.y = uv.y.clamp(0.0, 1.0);
+        uv *= Vec2::new(w as f32, (h - 1) as f32);
+        let px = (uv.x as usize).min(w - 1);
+        let py = (uv.y as usize).min(h - 2);
+        (py * (w + 1) + px, uv - Vec2::new(px as f32, py as f32))
+    }
+
+    /// The radiance (times `scale`) interpolated with weights `w1` in the cell from texel `i`.
+    #[inline]
+    pub(super) fn interpolate(&self, i: usize, w1: Vec2) -> Rgb {
+        let pw = self.width + 1;
+        let w0 = Vec2::ONE - w1;
+        let v0 = self.data[i] * w0.x + self.data[i + 1] * w1.x;
+        let v1 = self.data[i + pw] * w0.x + self.data[i + pw + 1] * w1.x;
+        let v = v0 * w0.y + v1 * w1.y;
+        Rgb::new(v.x, v.y, v.z) * self.scale
+    }
+
+    /// Mitsuba's `eval_spectrum`: bilinear lookup at lat-long `uv`, times `scale`.
+    pub(super) fn eval_uv(&self, uv: Vec2) -> Rgb {
+        let (i, w1) = self.bilinear_cell(uv);
+        self.interpolate(i, w1)
+    }
+
+    /// Spectral mode: the radiance from world direction `d` at the wavelengths `wl`, as
+    /// Mitsuba's spectral `envmap` computes it: each of the four texels around the lookup is
+    /// upsampled as an illuminant (shape ρᵢ of rgbᵢ/sᵢ, sᵢ = 2·max(rgbᵢ)), and the bilinear
+    /// interpolation of the shapes is multiplied by the interpolation of the sᵢ and by D65
+    /// (not the interpolation of the products: near a small bright sun this shifts the colour
+    /// by a percent or so against upsampling the interpolated RGB, which Specula reproduces
+    /// so that spectral renders match Mitsuba's).
+    pub fn eval_spectral(&self, d_world: Vec3, wl: &specula_bsdf::Wavelengths) -> Rgb {
+        let d = self.local(d_world);
+        if d == Vec3::ZERO {
+            return Rgb::ZERO;
+        }
+        let (i, w1) = self.bilinear_cell(Self::direction_to_uv(d));
+        let w0 = Vec2::ONE - w1;
+        let pw = self.width + 1;
+        let mut shape = Rgb::ZERO;
+        let mut scale = 0.0f32;
+        for (idx, wt) in [
+            (i, w0.x * w0.y),
+            (i + 1, w1.x * w0.y),
+            (i + pw, w0.x * w1.y),
+            (i + pw + 1, w1.x * w1.y),
+        ] {
+            let rgb = self.texel(idx).map(|v| v.max(0.0));
+            let s = 2.0 * rgb.max_component();
+            if s > 0.0 {
+                shape += specula_bsdf::spectral::upsample::reflectance(rgb / s, wl) * wt;
+                scale += s * wt;
+            }
+        }
+        let d65 = Rgb(wl.0.map(specula_bsdf::spectral::cie::d65));
+        shape * d65 * (scale * self.scale)
+    }
+
+    #[inline]
+    pub(super) fn local(&self, d_world: Vec3) -> Vec3 {
+        (self.to_local * d_world).normalize_or_zero()
+    }
+
+    /// Asks the cache for the texels that a lookup from world direction `d_world` reads,
+    /// before the caller traces a ray that may escape along it (the lookup itself would wait
+    /// for them when the ray escapes); a map small enough to stay in the core's cache
+    /// (under 256 KiB of texels) is skipped.
+    #[inline]
+    pub fn prefetch(&self, d_world: Vec3) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            if self.data.len() < 16 * 1024 {
+                return;
+            }
+            let i = self.coarse_cell(d_world);
+            // SAFETY: the cell's four texels i, i + 1, i + w + 1 and i + w + 2 lie in `data`
+            // (py ≤ h − 2 and px ≤ w − 1, so i + w + 2 ≤ (h − 1)(w + 1) + w = len − 1), and
+            // prefetching never faults
+            unsafe {
+                let p = self.data.as_ptr().add(i) as *const i8;
+                _mm_prefetch::<_MM_HINT_T0>(p);
+                _mm_prefetch::<_MM_HINT_T0>(p.add(16));
+                let q = self.data.as_ptr().add(i + self.width + 1) as *const i8;
+                _mm_prefetch::<_MM_HINT_T0>(q);
+                _mm_prefetch::<_MM_HINT_T0>(q.add(16));
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = d_world;
+    }
+
+    /// The upper-left texel of the bilinear lookup's cell for world direction `d_world`
+    /// (as `bilinear_cell(direction_to_uv(local(d)))` gives it) computed cheaply for
+    /// [`Envmap::prefetch`]: acos from a short polynomial (error under 0.0001 rad) instead
+    /// of libm's, and no normalisation, so it can be a texel off next to a cell's edge.
+    #[inline]
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    pub(super) fn coarse_cell(&self, d_world: Vec3) -> usize {
+        let d = self.to_local * d_world;
+        // φ as the lookup computes it (a short polynomial already)
+        let phi = specula_bsdf::math::atan2(d.x, -d.z);
+        // θ = acos(y/|d|): √(1 − y)·(1.5707288 − 0.2121144 y + 0.0742610 y² − 0.0187293 y³)
+        // for y ≥ 0 (Abramowitz & Stegun 4.4.45), mirrored for y < 0
+        let len = d.length();
+        let y = if len > 0.0 {
+            (d.y / len).clamp(-1.0, 1.0)
+        } else {
+            0.0
+        };
+        let ay = y.abs();
+        let a = (1.0 - ay).sqrt()
+            * (1.570_728_8 + ay * (-0.212_114_4 + ay * (0.074_261 - 0.018_729_3 * ay)));
+        let theta = if y < 0.0 { PI - a } else { a };
+        let (w, h) = (self.width, self.height);
+        let mut u = phi * (0.5 / PI) - 0.5 / w as f32;
+        if u < 0.0 {
+            u += 1.0;
+        }
+        // (`as i32` of NaN is 0: a degenerate direction still gives a texel in the map)
+        let px = ((u * w as f32) as i32).clamp(0, w as i32 - 1) as usize;
+        let py = ((theta * (1.0 / PI) * (h - 1) as f32) as i32).clamp(0, h as i32 - 2) as usize;
+        py * (w + 1) + px
+    }
+
+    /// Radiance arriving from world direction `d`.
+    pub fn eval(&self, d_world: Vec3) -> Rgb {
+        let d = self.local(d_world);
+        if d == Vec3::ZERO {
+            return Rgb::ZERO;
+        }
+        self.eval_uv(Self::direction_to_uv(d))
+    }
+
+    /// [`Envmap::eval`] and [`Envmap::pdf`] together (one lat-long conversion, and the pdf
+    /// from the texels the radiance reads).
+    pub fn eval_pdf(&self, d_world: Vec3) -> (Rgb, f32) {
+        let d = self.local(d_world);
+        if d == Vec3::ZERO {
+            return (Rgb::ZERO, 0.0);
+        }
+        let (i, w1) = self.bilinear_cell(Self::direction_to_uv(d));
+        (self.interpolate(i, w1), self.cell_pdf_at(i))
+    }
+
+    /// Solid-angle pdf of [`Envmap::sample`]: that of the cell of the bilinear lookup.
+    pub fn pdf(&self, d_world: Vec3) -> f32 {
+        let d = self.local(d_world);
+        if d == Vec3::ZERO {
+            return 0.0;
+        }
+        self.cell_pdf_at(self.bilinear_cell(Self::direction_to_uv(d)).0)
+    }
+
+    /// Importance-samples a direction (see the module documentation).
+    pub fn sample(&self, u: Vec2) -> Option<DirectionSample> {
+        if self.row_cdf[self.height - 1] != 1.0 {
+            return None; // black (or non-finite) map
+        }
+        let w = self.width;
+        let (j, sv) = guide::sample(&self.row_cdf, &self.row_guide, u.y);
+        let g = guide::buckets(w) + 1;
+        let (i, su) = guide::sample(
+            &self.col_cdf[j * (w + 1)..(j + 1) * (w + 1)],
+            &self.col_guide[j * g..(j + 1) * g],
+            u.x,
+        );
+        let pdf = self.cell_pdf_at(j * (w + 1) + i);
+        if pdf.is_nan() || pdf <= 0.0 {
+            return None;
+        }
+        // u of the lat-long map (φ / 2π, a half texel on from the cell's corner) and cos θ
+        let x = (i as f32 + su + 0.5) / w as f32;
+        let (c0, c1) = (self.cos_theta[j], self.cos_theta[j + 1]);
+        let cos_t = c0 + (c1 - c0) * sv;
+        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+        let (sin_p, cos_p) = specula_bsdf::math::sincos_2pi(x);
+        let d_local = Vec3::new(sin_t * sin_p, cos_t, -sin_t * cos_p);
+        let wi = (self.to_world * d_local).normalize();
+        // the radiance at the sampled point, from its lat-long coordinates directly (what
+        // `direction_to_uv(d_local)` gives up to rounding, without its atan2)
+        let uv = Vec2::new(x, cos_t.clamp(-1.0, 1.0).acos() * (1.0 / PI));
+        Some(DirectionSample {
+            wi,
+            dist: f32::INFINITY,
+            radiance: self.eval_uv(uv),
+            pdf,
+            is_delta: false,
+        })
+    }
+}

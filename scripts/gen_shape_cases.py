@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Prints the Mitsuba 3 reference cases of `geometry.rs`'s cylinder and instance tests.
+"""Prints the Mitsuba 3 reference cases of `geometry/tests.rs`'s cylinder and instance tests.
 
 Shoots rays at small scenes in Mitsuba 3 (`scalar_rgb`) and prints Rust `Case` / `SCase`
 literals (hit t, p, n, shading frame, uv; sampled p, n, uv, pdf). Transforms are spelled as in
@@ -63,7 +63,7 @@ configs = [
 for name, shape, inside in configs:
     cases(name, shape, surface_rays(shape, US, inside), SAMPLES)
 
-# Instances: the same XML as `geometry.rs`'s `INSTANCE_XML` (a group of a sphere and a
+# Instances: the same XML as `geometry/tests.rs`'s `INSTANCE_XML` (a group of a sphere and a
 # rectangle, two instances: a similarity and a non-uniform scale).
 INSTANCE_XML = """<scene version="3.0.0">
     <shape type="shapegroup" id="g">

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Probes of Mitsuba 3.9.1 (scalar_rgb) whose printed numbers are the expected values in the unit
 tests of crates/specula-render/src/camera.rs (perspective/thinlens/orthographic rays, fov rules,
-crop, principal point, parameter errors) and emitters.rs (spot falloff and texture, projector
+crop, principal point, parameter errors) and emitters/ (spot falloff and texture, projector
 normalisation). Developer tool only (needs mitsuba and numpy): python3 scripts/probe_sensors_emitters.py
 """
 import math

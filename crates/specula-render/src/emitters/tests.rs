@@ -1,4 +1,3 @@
-
 /// Uniform numbers in [0, 1) from a 64-bit LCG seeded with `seed` (the tests' fixed
 /// sequences).
 fn lcg(mut seed: u64) -> impl FnMut() -> f32 {

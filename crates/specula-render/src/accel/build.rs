@@ -62,9 +62,9 @@ pub(super) fn half_area_f64(lo: Vec3, hi: Vec3) -> f64 {
     e.x * e.y + e.y * e.z + e.z * e.x
 }
 
-/// What the build reads of a primitive, in half a cache line: its (padded) box, with its
-/// index (the bits of `lo[3]`) and whether it is a triangle (`hi[3]` 1 or 0) in the boxes'
-/// fourth lanes, so that each corner is one aligned 16-byte load. The box's centroid, in
+/// What the build reads of a primitive, in half a cache line: its (padded) box, each corner
+/// followed by a 32-bit word (the primitive's index, whether it is a triangle), so that a
+/// corner is one aligned 16-byte load whose fourth lane the box arithmetic ignores. The box's centroid, in
 /// double precision as the bins are placed, is computed from the corners where it is needed
 /// (the same bits every time: f32 → f64 is exact). The build partitions these records
 /// themselves (not indices to them), so each node's primitives lie consecutively in memory;
@@ -73,8 +73,10 @@ pub(super) fn half_area_f64(lo: Vec3, hi: Vec3) -> f64 {
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
 pub(super) struct PrimBox {
-    lo: [f32; 4],
-    hi: [f32; 4],
+    lo: [f32; 3],
+    index: u32,
+    hi: [f32; 3],
+    tri: u32,
 }
 
 /// The smaller of two centroids, per axis (no NaN is ever built: `f64::min` without its NaN
@@ -97,35 +99,41 @@ impl PrimBox {
     #[inline]
     pub(super) fn new(lo: Vec3, hi: Vec3, tri: bool, index: u32) -> PrimBox {
         PrimBox {
-            lo: [lo.x, lo.y, lo.z, f32::from_bits(index)],
-            hi: [hi.x, hi.y, hi.z, if tri { 1.0 } else { 0.0 }],
+            lo: lo.to_array(),
+            index,
+            hi: hi.to_array(),
+            tri: tri as u32,
         }
     }
 
-    /// A corner as a SIMD vector (its fourth lane carries the record's extra data, which
-    /// `Vec3A` arithmetic never mixes into x, y, z).
+    /// The 16 bytes at float offset `at` (0: `lo` and `index`, 4: `hi` and `tri`) as a SIMD
+    /// vector, in one aligned load (x86-64): the word after the corner lands in the fourth
+    /// lane, which `Vec3A` arithmetic never mixes into x, y, z (no floating-point operation
+    /// reads it as a value).
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn corner(c: &[f32; 4]) -> Vec3A {
-        #[cfg(target_arch = "x86_64")]
-        {
-            // SAFETY: SSE2 is part of the x86-64 baseline; `c` is 16-byte aligned (the
-            // record is 32-byte aligned and its corners lie at offsets 0 and 16)
-            unsafe { Vec3A::from(std::arch::x86_64::_mm_load_ps(c.as_ptr())) }
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            Vec3A::new(c[0], c[1], c[2])
-        }
+    fn quad(&self, at: usize) -> std::arch::x86_64::__m128 {
+        debug_assert!(at == 0 || at == 4);
+        // SAFETY: SSE2 is part of the x86-64 baseline; the pointer comes from the whole
+        // record (`#[repr(C)]`, 32 bytes, 32-byte aligned), so the 16 bytes at offset 0 or 16
+        // are in it and 16-byte aligned
+        unsafe { std::arch::x86_64::_mm_load_ps((self as *const PrimBox as *const f32).add(at)) }
     }
 
     #[inline(always)]
     fn lo(&self) -> Vec3A {
-        Self::corner(&self.lo)
+        #[cfg(target_arch = "x86_64")]
+        return Vec3A::from(self.quad(0));
+        #[cfg(not(target_arch = "x86_64"))]
+        return Vec3A::from_array(self.lo);
     }
 
     #[inline(always)]
     fn hi(&self) -> Vec3A {
-        Self::corner(&self.hi)
+        #[cfg(target_arch = "x86_64")]
+        return Vec3A::from(self.quad(4));
+        #[cfg(not(target_arch = "x86_64"))]
+        return Vec3A::from_array(self.hi);
     }
 
     /// The box's centroid along `axis`.
@@ -142,12 +150,12 @@ impl PrimBox {
 
     #[inline(always)]
     fn tri(&self) -> bool {
-        self.hi[3] != 0.0
+        self.tri != 0
     }
 
     #[inline(always)]
-    fn index(&self) -> u32 {
-        self.lo[3].to_bits()
+    pub(super) fn index(&self) -> u32 {
+        self.index
     }
 }
 
@@ -428,8 +436,8 @@ fn split(range: &mut [PrimBox], clo: DVec3, chi: DVec3, depth: u32) -> Split {
             // (the centroid's x and y as `PrimBox::c_axis` computes them: both corners
             // widened exactly to f64, added, halved)
             use std::arch::x86_64::{
-                _mm_add_pd, _mm_cvtps_pd, _mm_cvtsi128_si32, _mm_cvttpd_epi32, _mm_load_ps,
-                _mm_mul_pd, _mm_set1_pd, _mm_set_pd, _mm_shuffle_epi32, _mm_sub_pd,
+                _mm_add_pd, _mm_cvtps_pd, _mm_cvtsi128_si32, _mm_cvttpd_epi32, _mm_mul_pd,
+                _mm_set1_pd, _mm_set_pd, _mm_shuffle_epi32, _mm_sub_pd,
             };
             // SAFETY (each block): SSE2 is part of the x86-64 baseline; the corners are
             // 16-byte aligned (see `PrimBox::corner`)
@@ -443,8 +451,8 @@ fn split(range: &mut [PrimBox], clo: DVec3, chi: DVec3, depth: u32) -> Split {
             let clamp = |k: i32| k.clamp(0, nb as i32 - 1) as usize;
             for p in range.iter() {
                 let (kx, ky) = unsafe {
-                    let lo = _mm_cvtps_pd(_mm_load_ps(p.lo.as_ptr()));
-                    let hi = _mm_cvtps_pd(_mm_load_ps(p.hi.as_ptr()));
+                    let lo = _mm_cvtps_pd(p.quad(0));
+                    let hi = _mm_cvtps_pd(p.quad(4));
                     let c = _mm_mul_pd(_mm_add_pd(lo, hi), half);
                     let xy = _mm_mul_pd(_mm_sub_pd(c, clo_xy), scale_xy);
                     let k = _mm_cvttpd_epi32(xy);

@@ -254,7 +254,6 @@ def mitsuba_run(scene, spp, variant="llvm_ad_rgb", threads=None, warm=1, out=Non
     return d
 
 
-
 def cpu_description():
     """The CPU's model and its widest vector instruction set (from /proc/cpuinfo where there is
     one), with the lane count Dr.Jit's LLVM backend compiles Mitsuba's kernels for on it: 16

@@ -590,7 +590,6 @@ impl Bvh {
             let mut ids = [(u32::MAX, u32::MAX); LANES];
             for (lane, &t) in chunk.iter().enumerate() {
                 let pr = &prims[t as usize];
-                debug_assert_eq!(pr.analytic, NOT_ANALYTIC, "packets hold triangles only");
                 for (vi, vert) in pr.triangle(geoms).iter().enumerate() {
                     for a in 0..3 {
                         p.v[vi][a][lane] = vert[a];

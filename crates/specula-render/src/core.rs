@@ -68,19 +68,32 @@ impl SurfaceGeometry {
     /// The shading point a BSDF is evaluated at: uv, position, the derivatives and the
     /// geometric normal in the local shading frame, and the hit primitive with its
     /// barycentrics and the shape's per-primitive data (`surface`) for `mesh_attribute`.
+    /// `local_geometry`: whether the BSDF reads the derivatives and geometric normal
+    /// ([`specula_bsdf::models::Bsdf::reads_local_geometry`]); when false they keep
+    /// [`ShadingPoint`]'s defaults (x, y, z) and are not transformed.
     #[inline]
     pub fn shading_point<'a>(
         &self,
         hit: &Hit,
         surface: Option<&'a dyn SurfaceData>,
+        local_geometry: bool,
     ) -> ShadingPoint<'a> {
         let f = &self.sh_frame;
+        let (dp_du, dp_dv, n_geo) = if local_geometry {
+            (
+                f.to_local(self.dp_du),
+                f.to_local(self.dp_dv),
+                f.to_local(self.n_geo),
+            )
+        } else {
+            (Vec3::X, Vec3::Y, Vec3::Z)
+        };
         ShadingPoint {
             uv: self.uv,
             p: self.p,
-            dp_du: f.to_local(self.dp_du),
-            dp_dv: f.to_local(self.dp_dv),
-            n_geo: f.to_local(self.n_geo),
+            dp_du,
+            dp_dv,
+            n_geo,
             prim: hit.prim,
             bary: Vec2::new(hit.u, hit.v),
             surface,

@@ -367,7 +367,11 @@ impl Scene {
                 };
                 continue;
             }
-            let mut sp = si.shading_point(&hit, self.geometry[shape].surface_data());
+            let mut sp = si.shading_point(
+                &hit,
+                self.geometry[shape].surface_data(),
+                bsdf.reads_local_geometry(),
+            );
             sp.wavelengths = wl.copied();
 
             // next-event estimation

@@ -68,7 +68,7 @@ fn derivatives_match_mitsuba() {
             sg.dp_dv
         );
         // the shading point carries them in the local frame, with the geometric normal
-        let sp = sg.shading_point(&hit, None);
+        let sp = sg.shading_point(&hit, None, true);
         assert!((sg.sh_frame.to_world(sp.dp_du) - sg.dp_du).length() < 1e-4 * du.length().max(1.0));
         assert!((sg.sh_frame.to_world(sp.n_geo) - sg.n_geo).length() < 1e-5);
         hits += 1;

@@ -111,6 +111,37 @@ macro_rules! dispatch {
 }
 
 impl Bsdf {
+    /// Whether evaluating or sampling the model reads the shading point's local surface
+    /// geometry ([`ShadingPoint::dp_du`], [`ShadingPoint::dp_dv`], [`ShadingPoint::n_geo`]):
+    /// `bumpmap` does (its frame is built from them), and so does every model that nests one;
+    /// no other model or texture reads them. A renderer may leave those three fields at their
+    /// defaults for a model that answers false (it saves three frame changes per bounce).
+    pub fn reads_local_geometry(&self) -> bool {
+        match self {
+            Bsdf::BumpMap(_) => true,
+            Bsdf::NormalMap(b) => b.nested.reads_local_geometry(),
+            Bsdf::Mask(b) => b.nested.reads_local_geometry(),
+            Bsdf::TwoSided(b) => b.front.reads_local_geometry() || b.back.reads_local_geometry(),
+            Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::reads_local_geometry),
+            Bsdf::Diffuse(_)
+            | Bsdf::Conductor(_)
+            | Bsdf::RoughConductor(_)
+            | Bsdf::Dielectric(_)
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::RoughDielectric(_)
+            | Bsdf::Plastic(_)
+            | Bsdf::RoughPlastic(_)
+            | Bsdf::Sheen(_)
+            | Bsdf::Principled(_)
+            | Bsdf::PrincipledThin(_)
+            | Bsdf::Measured(_)
+            | Bsdf::Merl(_)
+            | Bsdf::Null(_)
+            | Bsdf::Irawan(_)
+            | Bsdf::Velvet(_) => false,
+        }
+    }
+
     /// The Mitsuba plugin name of the model.
     pub fn plugin_name(&self) -> &'static str {
         match self {

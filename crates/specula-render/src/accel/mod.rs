@@ -630,13 +630,20 @@ impl TriRay {
         };
         // (kx, ky): the next two axes after kz, swapped when d[kz] < 0 (keeps the winding)
         const K: [[[usize; 2]; 2]; 3] = [[[1, 2], [2, 1]], [[2, 0], [0, 2]], [[0, 1], [1, 0]]];
-        let dz = d[kz];
+        // four-element copies indexed by `k & 3`: no bounds checks (and no panicking
+        // `Vec3` index) on this per-ray path
+        let dv = [d.x, d.y, d.z, 0.0];
+        let ov = [ray.o.x, ray.o.y, ray.o.z, 0.0];
+        let dz = dv[kz & 3];
         let [kx, ky] = K[kz][(dz < 0.0) as usize];
+        let (kx, ky) = (kx & 3, ky & 3);
+        // the three quotients in one division (each lane the same IEEE quotient as alone)
+        let s = Vec3A::new(dv[kx], dv[ky], 1.0) / Vec3A::splat(dz);
         TriRay {
             o: ray.o,
             k: [kx, ky, kz],
-            ok: [ray.o[kx], ray.o[ky], ray.o[kz]],
-            s: Vec3::new(d[kx] / dz, d[ky] / dz, 1.0 / dz),
+            ok: [ov[kx], ov[ky], ov[kz & 3]],
+            s: s.into(),
         }
     }
 

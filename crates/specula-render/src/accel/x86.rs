@@ -105,9 +105,9 @@ impl PacketTest for Sse2 {
         macro_rules! rel {
             ($v:expr) => {
                 (
-                    _mm_sub_ps(_mm_load_ps(p.v[$v][kx].as_ptr()), ox),
-                    _mm_sub_ps(_mm_load_ps(p.v[$v][ky].as_ptr()), oy),
-                    _mm_sub_ps(_mm_load_ps(p.v[$v][kz].as_ptr()), oz),
+                    _mm_sub_ps(_mm_load_ps(p.v[$v].get_unchecked(kx).as_ptr()), ox),
+                    _mm_sub_ps(_mm_load_ps(p.v[$v].get_unchecked(ky).as_ptr()), oy),
+                    _mm_sub_ps(_mm_load_ps(p.v[$v].get_unchecked(kz).as_ptr()), oz),
                 )
             };
         }
@@ -188,8 +188,8 @@ impl PacketTest for Avx2 {
         macro_rules! ld {
             ($v:expr, $k:expr) => {
                 _mm256_set_m128(
-                    _mm_load_ps(p1.v[$v][$k].as_ptr()),
-                    _mm_load_ps(p0.v[$v][$k].as_ptr()),
+                    _mm_load_ps(p1.v[$v].get_unchecked($k).as_ptr()),
+                    _mm_load_ps(p0.v[$v].get_unchecked($k).as_ptr()),
                 )
             };
         }

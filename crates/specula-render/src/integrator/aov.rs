@@ -58,7 +58,11 @@ impl Scene {
                 (Some((h, s)), AovType::Albedo) => {
                     let shape = h.shape as usize;
                     let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-                    let mut sp = s.shading_point(h, self.geometry[shape].surface_data());
+                    let mut sp = s.shading_point(
+                        h,
+                        self.geometry[shape].surface_data(),
+                        bsdf.reads_local_geometry(),
+                    );
                     // spectral mode: the reflectance at the wavelengths, developed (Mitsuba)
                     sp.wavelengths = spectral.map(|(w, _)| *w);
                     let r = bsdf.diffuse_reflectance(&sp, s.sh_frame.to_local(-ray.d));

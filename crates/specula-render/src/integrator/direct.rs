@@ -35,7 +35,11 @@ impl Scene {
         let (frac_lum, frac_bsdf) = (ne as f32 / total, nb as f32 / total);
         let ctx = BsdfContext::RADIANCE;
         let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-        let mut sp = si.shading_point(&hit, self.geometry[shape].surface_data());
+        let mut sp = si.shading_point(
+            &hit,
+            self.geometry[shape].surface_data(),
+            bsdf.reads_local_geometry(),
+        );
         sp.wavelengths = wl.copied();
         let smooth = bsdf.flags().intersects(specula_bsdf::LobeFlags::SMOOTH);
 

@@ -72,7 +72,11 @@ impl Scene {
                 break;
             }
             let bsdf = &self.bsdfs[self.shape_bsdf[shape] as usize];
-            let mut sp = si.shading_point(&hit, self.geometry[shape].surface_data());
+            let mut sp = si.shading_point(
+                &hit,
+                self.geometry[shape].surface_data(),
+                bsdf.reads_local_geometry(),
+            );
             sp.wavelengths = wl.copied();
             let flags = bsdf.flags();
 

@@ -1206,8 +1206,14 @@ impl Bvh {
     }
 }
 
+/// Whether the ray can be traced: finite origin and direction, a non-zero direction and a
+/// positive extent (the component tests as one vector comparison each).
+#[inline(always)]
 fn valid_ray(ray: &Ray) -> bool {
-    ray.o.is_finite() && ray.d.is_finite() && ray.d != Vec3::ZERO && ray.t_max > 0.0
+    let (o, d) = (Vec3A::from(ray.o), Vec3A::from(ray.d));
+    let inf = Vec3A::splat(f32::INFINITY);
+    // |x| < ∞ is false for ±∞ and NaN
+    (o.abs().cmplt(inf) & d.abs().cmplt(inf)).all() && d.cmpne(Vec3A::ZERO).any() && ray.t_max > 0.0
 }
 
 impl Intersector for Bvh {

@@ -903,3 +903,47 @@ any-hit {:.2} Mrays/s, random closest-hit {:.2} Mrays/s ({} hits) [1 thread]",
         hits2
     );
 }
+
+#[test]
+fn invalid_rays_hit_nothing() {
+    let geoms = scene();
+    let bvh = Bvh::build(&geoms);
+    // a ray through the scene that hits something
+    let good = Ray {
+        o: Vec3::new(0.0, 1.0, 6.0),
+        d: Vec3::new(0.0, 0.0, -1.0),
+        t_max: f32::INFINITY,
+    };
+    assert!(valid_ray(&good));
+    assert!(bvh.intersect(&good).is_some() && bvh.occluded(&good));
+    let mut bad = Vec::new();
+    for bad_value in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        for axis in 0..3 {
+            let mut r = good;
+            r.o[axis] = bad_value;
+            bad.push(r);
+            let mut r = good;
+            r.d[axis] = bad_value;
+            bad.push(r);
+        }
+    }
+    for d in [Vec3::ZERO, Vec3::new(-0.0, 0.0, -0.0)] {
+        bad.push(Ray { d, ..good });
+    }
+    for t_max in [0.0, -0.0, -1.0, f32::NAN] {
+        bad.push(Ray { t_max, ..good });
+    }
+    for r in &bad {
+        assert!(!valid_ray(r), "{r:?}");
+        for isa in Isa::available() {
+            let mut b = bvh.clone();
+            b.set_isa(isa);
+            assert!(b.intersect(r).is_none() && !b.occluded(r), "{isa:?} {r:?}");
+        }
+    }
+    // a direction with one non-zero (even subnormal) component is valid
+    assert!(valid_ray(&Ray {
+        d: Vec3::new(0.0, 0.0, -1e-40),
+        ..good
+    }));
+}

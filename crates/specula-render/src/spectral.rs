@@ -170,11 +170,17 @@ impl Scene {
 
     /// A light sample's weight (radiance / pdf) at the wavelengths (see
     /// [`infinite_emission`]).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn light_weight(&self, ls: &LightSample, wl: Option<&Wavelengths>) -> Rgb {
-        let Some(w) = wl else {
-            return ls.weight;
-        };
+        match wl {
+            None => ls.weight,
+            Some(w) => self.light_weight_at(ls, w),
+        }
+    }
+
+    /// [`Scene::light_weight`] in spectral mode (out of line: RGB paths never call it).
+    #[inline(never)]
+    fn light_weight_at(&self, ls: &LightSample, w: &Wavelengths) -> Rgb {
         if let Some(Some(c)) = self.light_colours.get(ls.light as usize) {
             return c.scaled(ls.weight, w);
         }

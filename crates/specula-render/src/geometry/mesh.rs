@@ -224,6 +224,7 @@ impl TriMesh {
         PositionSample { p, n, uv, pdf }
     }
 
+    #[inline]
     pub(super) fn surface(&self, hit: &Hit) -> SurfaceGeometry {
         let tri = hit.prim as usize;
         let [p0, p1, p2] = hit.vertices.unwrap_or_else(|| self.triangle(tri));

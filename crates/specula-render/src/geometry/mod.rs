@@ -494,6 +494,7 @@ impl Geometry {
 
     /// Local geometry at a hit reported by the acceleration structure for this shape; `ray`
     /// must be the ray that produced `hit` (spheres re-evaluate `o + t·d`).
+    #[inline]
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
         match self {
             Geometry::Mesh(m) => m.surface(hit),

@@ -159,8 +159,16 @@ impl Scene {
 
     /// Asks the cache for what evaluating the environment maps along `d` will read, should
     /// the ray about to be traced escape (see [`crate::emitters::Envmap::prefetch`]).
-    #[inline]
+    #[inline(always)]
     fn prefetch_infinite(&self, d: Vec3) {
+        if self.infinite_lights.is_empty() {
+            return;
+        }
+        self.prefetch_infinite_maps(d);
+    }
+
+    #[inline(never)]
+    fn prefetch_infinite_maps(&self, d: Vec3) {
         for &li in &self.infinite_lights {
             if let Light::Other(crate::emitters::Emitter::Envmap(e)) = &self.lights[li as usize] {
                 e.prefetch(d);

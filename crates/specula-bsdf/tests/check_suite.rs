@@ -5,6 +5,8 @@
 //! Each suite run is one family of statistical tests at family-wise significance 0.01
 //! (Šidák-corrected inside the suite), with fixed seeds, so the outcomes are reproducible.
 
+mod common;
+use common::Slope;
 use glam::{Vec2, Vec3};
 use specula_bsdf::check::suite::{self, SuiteConfig, SuiteReport, Verdict};
 use specula_bsdf::warp::square_to_cosine_hemisphere;
@@ -266,22 +268,6 @@ fn report_is_deterministic_across_thread_counts() {
         show(&suite::run_suite(&b, &cfg, &|_, _| {}))
     };
     assert_eq!(run(1), run(3));
-}
-
-/// A height field with a constant gradient, for `bumpmap` (only bitmaps have one in a scene).
-#[derive(Debug)]
-struct Slope;
-
-impl specula_bsdf::Texture for Slope {
-    fn eval(&self, _: &ShadingPoint) -> Spectrum {
-        Spectrum::ZERO
-    }
-    fn mean(&self) -> Spectrum {
-        Spectrum::ZERO
-    }
-    fn eval_1_grad(&self, _: &ShadingPoint) -> Option<glam::Vec2> {
-        Some(glam::Vec2::new(0.6, -0.3))
-    }
 }
 
 #[test]

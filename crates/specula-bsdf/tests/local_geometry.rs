@@ -2,27 +2,13 @@
 //! `dp_du`, `dp_dv` and `n_geo` gives the same values, bit for bit, whatever they are (so a
 //! renderer may leave them unset), and the models that do read them say so.
 
+mod common;
+use common::Slope;
 use glam::{Vec2, Vec3};
 use specula_bsdf::{
     build_bsdf, parse_spec, Bsdf, BsdfContext, BsdfModel, Props, ShadingPoint, Spectrum, Value,
 };
 use std::sync::Arc;
-
-/// A height field with a constant gradient, for `bumpmap`.
-#[derive(Debug)]
-struct Slope;
-
-impl specula_bsdf::Texture for Slope {
-    fn eval(&self, _: &ShadingPoint) -> Spectrum {
-        Spectrum::ZERO
-    }
-    fn mean(&self) -> Spectrum {
-        Spectrum::ZERO
-    }
-    fn eval_1_grad(&self, _: &ShadingPoint) -> Option<Vec2> {
-        Some(Vec2::new(0.6, -0.3))
-    }
-}
 
 fn bump(nested: &str) -> Bsdf {
     let mut p = Props::new("bumpmap", None);

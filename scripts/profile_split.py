@@ -27,20 +27,20 @@ import re
 import subprocess
 import sys
 import tempfile
+import time
 
 root = pathlib.Path(__file__).resolve().parent.parent
 SCENES = root.parent / "shared" / "scenes"
 LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"
 
 MI_CODE = r"""
-import sys, time, signal, os
+import sys, time, resource
 import drjit as dr, mitsuba as mi
 mi.set_variant("llvm_ad_rgb")
 dr.set_thread_count(1)
 s = mi.load_file(sys.argv[1])
 spp = int(sys.argv[2])
 img = mi.render(s, spp=4); dr.eval(img); dr.sync_thread()  # compile the kernels
-import resource
 print("@@START", time.time(), flush=True)
 t = time.perf_counter()
 c = resource.getrusage(resource.RUSAGE_SELF)
@@ -53,9 +53,9 @@ print("@@END", time.time(), flush=True)
 
 
 def perf_report(data, start=None, end=None):
-    """(samples per shared object and symbol) of a perf.data file, optionally only those
-    between wall-clock times `start` and `end` (perf's clock is monotonic: the caller passes
-    its own offsets)."""
+    """(samples, shared object, symbol) rows of a perf.data file, optionally only the samples
+    between perf timestamps `start` and `end` (seconds, in the clock the file was recorded
+    with)."""
     cmd = ["perf", "report", "-i", str(data), "--no-children", "--sort", "dso,sym", "--stdio",
            "-F", "sample,dso,sym", "--percent-limit", "0", "-t", "\t"]
     if start is not None:
@@ -87,8 +87,7 @@ def specula(exe, scene, spp, tmp):
     rows = [r for r in perf_report(data) if "specula" in r[1]]
     # the render dominates the process (start-up is milliseconds); count the process's
     # samples in the binary, scaled to the render time
-    trav, total = split(rows, lambda dso, sym: "specula_render::accel" in sym
-                        or "as specula_render::accel::Intersector" in sym)
+    trav, total = split(rows, lambda dso, sym: "specula_render::accel" in sym)
     return samples, render_s, trav, total
 
 
@@ -106,8 +105,7 @@ def mitsuba(scene, spp, tmp):
         return None
     # only the samples of the timed render: perf's timestamps are CLOCK_MONOTONIC; Python's
     # time.time() is wall time, so map the marks through the offset between the two clocks
-    import time as _t
-    offset = _t.clock_gettime(_t.CLOCK_MONOTONIC) - _t.time()
+    offset = time.clock_gettime(time.CLOCK_MONOTONIC) - time.time()
     start = float(marks["START"]) + offset
     end = float(marks["END"]) + offset
     rows = perf_report(data, f"{start:.6f}", f"{end:.6f}")

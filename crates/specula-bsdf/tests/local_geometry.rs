@@ -10,14 +10,6 @@ use specula_bsdf::{
 };
 use std::sync::Arc;
 
-fn bump(nested: &str) -> Bsdf {
-    let mut p = Props::new("bumpmap", None);
-    p.set("height", Value::Texture(Arc::new(Slope)), None)
-        .unwrap();
-    p.add_child(parse_spec(nested).unwrap(), None);
-    build_bsdf(p).unwrap()
-}
-
 fn wrap(plugin: &str, children: Vec<Bsdf>, params: Vec<(&str, Value)>) -> Bsdf {
     let mut p = Props::new(plugin, None);
     for (k, v) in params {
@@ -114,7 +106,13 @@ fn models_that_do_not_read_the_local_geometry_ignore_it() {
 
 #[test]
 fn bump_maps_read_the_local_geometry_wherever_they_are_nested() {
-    let b = || bump("roughplastic distribution=ggx alpha=0.2");
+    let b = || {
+        wrap(
+            "bumpmap",
+            vec![parse_spec("roughplastic distribution=ggx alpha=0.2").unwrap()],
+            vec![("height", Value::Texture(Arc::new(Slope)))],
+        )
+    };
     let d = || parse_spec("diffuse").unwrap();
     let wrapped = [
         ("bumpmap", b()),

@@ -121,9 +121,10 @@ impl Bsdf {
         match self {
             Bsdf::BumpMap(_) => true,
             // one comparison for the common leaf models; the wrappers ask what they nest
-            Bsdf::NormalMap(_) | Bsdf::Mask(_) | Bsdf::TwoSided(_) | Bsdf::Blend(_) => {
-                self.nested_reads_local_geometry()
-            }
+            Bsdf::NormalMap(b) => Bsdf::any_reads_local_geometry(&[&b.nested]),
+            Bsdf::Mask(b) => Bsdf::any_reads_local_geometry(&[&b.nested]),
+            Bsdf::TwoSided(b) => Bsdf::any_reads_local_geometry(&[&b.front, &b.back]),
+            Bsdf::Blend(b) => Bsdf::any_reads_local_geometry(&[&b.bsdfs[0], &b.bsdfs[1]]),
             Bsdf::Diffuse(_)
             | Bsdf::Conductor(_)
             | Bsdf::RoughConductor(_)
@@ -143,16 +144,11 @@ impl Bsdf {
         }
     }
 
-    /// [`Bsdf::reads_local_geometry`] of a wrapper: whether a model it nests reads it.
+    /// Whether any of the BSDFs a wrapper nests reads the local geometry (out of line, so
+    /// that the leaf models' answer stays one inlined comparison).
     #[inline(never)]
-    fn nested_reads_local_geometry(&self) -> bool {
-        match self {
-            Bsdf::NormalMap(b) => b.nested.reads_local_geometry(),
-            Bsdf::Mask(b) => b.nested.reads_local_geometry(),
-            Bsdf::TwoSided(b) => b.front.reads_local_geometry() || b.back.reads_local_geometry(),
-            Bsdf::Blend(b) => b.bsdfs.iter().any(Bsdf::reads_local_geometry),
-            _ => self.reads_local_geometry(),
-        }
+    fn any_reads_local_geometry(nested: &[&Bsdf]) -> bool {
+        nested.iter().any(|b| b.reads_local_geometry())
     }
 
     /// The Mitsuba plugin name of the model.

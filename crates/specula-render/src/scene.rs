@@ -257,6 +257,18 @@ fn keep_horizontal_fov(root: &mut Node) -> Result<()> {
     Ok(())
 }
 
+/// The infinite lights whose texels are worth prefetching (see `Scene::prefetched_maps`).
+fn prefetched_maps(lights: &[Light], infinite: &[u32]) -> Vec<u32> {
+    infinite
+        .iter()
+        .copied()
+        .filter(|&li| {
+            matches!(&lights[li as usize],
+                Light::Other(crate::emitters::Emitter::Envmap(e)) if e.worth_prefetching())
+        })
+        .collect()
+}
+
 pub struct Scene {
     pub geometry: Vec<Geometry>,
     /// BSDF of each shape.
@@ -267,6 +279,9 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Indices of infinitely distant lights (environment, constant) seen by escaping rays.
     pub infinite_lights: Vec<u32>,
+    /// Those of them whose texels the path loop prefetches along each new ray: environment
+    /// maps too large to stay in the core's cache ([`crate::emitters::Envmap::prefetch`]).
+    pub(crate) prefetched_maps: Vec<u32>,
     pub accel: Bvh,
     pub camera: Camera,
     pub film: Film,
@@ -349,6 +364,7 @@ impl Scene {
             self.infinite_lights.push(self.lights.len() as u32);
         }
         self.lights.push(Light::Other(emitter));
+        self.prefetched_maps = prefetched_maps(&self.lights, &self.infinite_lights);
     }
 
     #[inline]
@@ -739,7 +755,7 @@ impl Builder {
                 "the scene has no shapes and no emitters",
             ));
         }
-        let infinite_lights = parts
+        let infinite_lights: Vec<u32> = parts
             .lights
             .iter()
             .enumerate()
@@ -747,6 +763,7 @@ impl Builder {
             .map(|(i, _)| i as u32)
             .collect();
         parts.media.check_integrator(root)?;
+        let prefetched_maps = prefetched_maps(&parts.lights, &infinite_lights);
         Ok(Scene {
             geometry: parts.geometry,
             shape_bsdf: parts.shape_bsdf,
@@ -754,6 +771,7 @@ impl Builder {
             bsdfs,
             lights: parts.lights,
             infinite_lights,
+            prefetched_maps,
             accel,
             camera,
             film,
@@ -1628,6 +1646,23 @@ mod from_xml_str_tests {
         s.add_light(Emitter::constant(Rgb::splat(0.5)));
         assert_eq!(s.lights.len(), 2);
         assert_eq!(s.infinite_lights, vec![1]);
+        // only environment maps too large for the cache are prefetched along new rays
+        assert!(s.prefetched_maps.is_empty());
+        let map = |w: usize, h: usize| {
+            let img = crate::image_io::Image {
+                width: w,
+                height: h,
+                channels: 3,
+                data: vec![1.0; w * h * 3],
+            };
+            let e = crate::emitters::Envmap::new(&img, false, 1.0, &glam::Mat4::IDENTITY);
+            Emitter::Envmap(Box::new(e.unwrap()))
+        };
+        s.add_light(map(16, 8));
+        assert!(s.prefetched_maps.is_empty());
+        s.add_light(map(256, 128));
+        assert_eq!(s.infinite_lights, vec![1, 2, 3]);
+        assert_eq!(s.prefetched_maps, vec![3]);
         let e = Scene::from_xml_str(
             "<scene version=\"3.0.0\">\n<shape type=\"cone\"/></scene>",
             "<test>",

@@ -362,7 +362,7 @@ impl Envmap {
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            if self.data.len() < 16 * 1024 {
+            if !self.worth_prefetching() {
                 return;
             }
             let i = self.coarse_cell(d_world);
@@ -380,6 +380,13 @@ impl Envmap {
         }
         #[cfg(not(target_arch = "x86_64"))]
         let _ = d_world;
+    }
+
+    /// Whether [`Envmap::prefetch`] does anything: maps of 256 KiB of texels or more (16 Ki
+    /// texels of 16 bytes); smaller ones stay in the core's cache.
+    #[inline]
+    pub fn worth_prefetching(&self) -> bool {
+        self.data.len() >= 16 * 1024
     }
 
     /// The upper-left texel of the bilinear lookup's cell for world direction `d_world`

@@ -161,7 +161,7 @@ impl Scene {
     /// the ray about to be traced escape (see [`crate::emitters::Envmap::prefetch`]).
     #[inline(always)]
     fn prefetch_infinite(&self, d: Vec3) {
-        if self.infinite_lights.is_empty() {
+        if self.prefetched_maps.is_empty() {
             return;
         }
         self.prefetch_infinite_maps(d);
@@ -169,7 +169,7 @@ impl Scene {
 
     #[inline(never)]
     fn prefetch_infinite_maps(&self, d: Vec3) {
-        for &li in &self.infinite_lights {
+        for &li in &self.prefetched_maps {
             if let Light::Other(crate::emitters::Emitter::Envmap(e)) = &self.lights[li as usize] {
                 e.prefetch(d);
             }

@@ -24,7 +24,6 @@
 //! shift), which lowers the error on smooth integrands and removes the structured patterns, and
 //! no rounding of the sample count is needed.
 
-use super::ldsampler::sobol_2;
 use super::{pixel_seed, u32_to_unit, PixelSampler, Sampler, SamplerSettings};
 use glam::Vec2;
 
@@ -78,12 +77,13 @@ const fn matrices() -> [[u32; 32]; SOBOL_DIMS] {
     out
 }
 
-/// Point `index` of Sobol's sequence in dimension `dim` (< [`SOBOL_DIMS`]), a 32-bit fraction.
-#[inline]
-pub fn sobol(dim: usize, mut index: u32) -> u32 {
+/// Point `index` of Sobol's sequence in dimension `dim` (< [`SOBOL_DIMS`]), a 32-bit fraction
+/// (the definition the sampler's tables are tested against).
+#[cfg(test)]
+fn sobol(dim: usize, mut index: u32) -> u32 {
     match dim {
         0 => index.reverse_bits(),
-        1 => sobol_2(index),
+        1 => super::ldsampler::sobol_2(index),
         _ => {
             let m = &MATRICES[dim];
             let mut r = 0;
@@ -100,6 +100,52 @@ pub fn sobol(dim: usize, mut index: u32) -> u32 {
     }
 }
 
+/// `REVERSED[j − 1][k][b]`: Sobol dimension j's contribution, bit-reversed, of byte k of the
+/// index when it equals b (j = 1 … 3): the XOR over an index's bytes is `sobol(j, i)` with its
+/// bits reversed, which is what the Owen scrambling hashes, so that no reversal is needed
+/// before it.
+static REVERSED: [[[u32; 256]; 4]; SOBOL_DIMS - 1] = reversed_tables();
+
+const fn reversed_tables() -> [[[u32; 256]; 4]; SOBOL_DIMS - 1] {
+    let mut t = [[[0u32; 256]; 4]; SOBOL_DIMS - 1];
+    let mut j = 1;
+    while j < SOBOL_DIMS {
+        let mut byte = 0;
+        while byte < 4 {
+            let mut b = 0;
+            while b < 256 {
+                let mut r = 0u32;
+                let mut bit = 0;
+                while bit < 8 {
+                    if b >> bit & 1 != 0 {
+                        r ^= MATRICES[j][byte * 8 + bit];
+                    }
+                    bit += 1;
+                }
+                t[j - 1][byte][b] = r.reverse_bits();
+                b += 1;
+            }
+            byte += 1;
+        }
+        j += 1;
+    }
+    t
+}
+
+/// `sobol(j, i).reverse_bits()` for j = 1 … 3, from [`REVERSED`] (one lookup for the
+/// indices below 256 that a pixel's first 256 samples use).
+#[inline]
+fn sobol_reversed(j: usize, i: u32) -> u32 {
+    let t = &REVERSED[j - 1];
+    if i < 256 {
+        return t[0][i as usize];
+    }
+    t[0][(i & 255) as usize]
+        ^ t[1][((i >> 8) & 255) as usize]
+        ^ t[2][((i >> 16) & 255) as usize]
+        ^ t[3][(i >> 24) as usize]
+}
+
 /// A hash in which every output bit depends only on the same and less significant input bits
 /// (Laine and Karras 2011, with the constants of Vegdahl's improvement): applied to a
 /// bit-reversed fraction it is a nested uniform (Owen) scramble.
@@ -113,9 +159,10 @@ fn laine_karras(mut x: u32, seed: u32) -> u32 {
     x
 }
 
-/// Owen scrambling of a 32-bit fraction (most significant bit first).
-#[inline]
-pub fn owen_scramble(x: u32, seed: u32) -> u32 {
+/// Owen scrambling of a 32-bit fraction (most significant bit first); the sampler applies it
+/// in the reversed-bit domain (see `value`).
+#[cfg(test)]
+fn owen_scramble(x: u32, seed: u32) -> u32 {
     laine_karras(x.reverse_bits(), seed).reverse_bits()
 }
 
@@ -124,6 +171,8 @@ pub struct Sobol {
     /// the current pixel's 64-bit hash
     pixel_seed: u64,
     sample: u32,
+    /// `sample` with its bits reversed (what the index shuffle hashes)
+    sample_reversed: u32,
     dim: u32,
     /// 2^bits − 1 with 2^bits ≥ the sample count
     mask: u32,
@@ -149,10 +198,12 @@ impl Sobol {
     /// below 2^m map onto one aligned block of 2^m. For the pixel's samples the bits above the
     /// sample count's are the same for all (a digital shift, which the Owen scrambling of the
     /// values absorbs), so they are dropped: the Sobol points then need fewer bits.
+    /// Applied to the current sample (`owen_scramble(sample, seed)`, from the sample's
+    /// reversed bits kept by `start_sample`).
     #[inline]
-    fn shuffle(&self, i: u32, seed: u32) -> u32 {
-        let s = owen_scramble(i, seed);
-        if i <= self.mask {
+    fn shuffle(&self, seed: u32) -> u32 {
+        let s = laine_karras(self.sample_reversed, seed).reverse_bits();
+        if self.sample <= self.mask {
             s & self.mask
         } else {
             s
@@ -165,23 +216,24 @@ impl Sobol {
         let d = self.dim;
         self.dim += 1;
         let (shuffle, sx, sy) = self.seeds(d);
-        match BLOCK.iter().find(|b| b.0 == d) {
-            Some(&(_, j)) => (self.block_index, j, sx, sy),
-            None => (self.shuffle(self.sample, shuffle), 0, sx, sy),
+        if d == BLOCK[0].0 {
+            (self.block_index, BLOCK[0].1, sx, sy)
+        } else if d == BLOCK[1].0 {
+            (self.block_index, BLOCK[1].1, sx, sy)
+        } else {
+            (self.shuffle(shuffle), 0, sx, sy)
         }
     }
 }
 
-/// Owen-scrambled Sobol dimension `j` at index `i` as a float in [0, 1).
+/// Owen-scrambled Sobol dimension `j` at index `i` as a float in [0, 1):
+/// `owen_scramble(sobol(j, i), seed)`, i.e. the hash of the value's reversed bits, reversed;
+/// the reversed value of dimension 0 (van der Corput) is the index itself, those of the others
+/// come from [`REVERSED`].
 #[inline]
 fn value(j: usize, i: u32, seed: u32) -> f32 {
-    let x = if j == 0 {
-        // van der Corput is the reversed index: reverse(LK(reverse(reverse(i)))) saves two
-        laine_karras(i, seed).reverse_bits()
-    } else {
-        owen_scramble(sobol(j, i), seed)
-    };
-    u32_to_unit(x)
+    let r = if j == 0 { i } else { sobol_reversed(j, i) };
+    u32_to_unit(laine_karras(r, seed).reverse_bits())
 }
 
 impl Sampler for Sobol {
@@ -204,6 +256,7 @@ impl PixelSampler for Sobol {
             seed: seed.wrapping_add(settings.seed),
             pixel_seed: 0,
             sample: 0,
+            sample_reversed: 0,
             dim: 0,
             mask: ((1u64 << bits) - 1) as u32,
             block_index: 0,
@@ -215,9 +268,10 @@ impl PixelSampler for Sobol {
     #[inline]
     fn start_sample(&mut self, sample: u32, dimension: u32) {
         self.sample = sample;
+        self.sample_reversed = sample.reverse_bits();
         self.dim = dimension;
         if dimension <= BLOCK[1].0 {
-            self.block_index = self.shuffle(sample, self.seeds(BLOCK_KEY).0);
+            self.block_index = self.shuffle(self.seeds(BLOCK_KEY).0);
         }
     }
 }
@@ -297,6 +351,30 @@ mod tests {
             })
             .collect();
         assert_eq!(t, [0, 1, 2, 0, 1, 1, 1, 1, 1, 1]);
+    }
+
+    /// The reversed-bit tables and the scrambled values built on them are `sobol` and
+    /// `owen_scramble` as written out, bit for bit.
+    #[test]
+    fn values_are_owen_scrambled_sobol_points() {
+        let mut h = 0x2545_f491_4f6c_dd1du64;
+        for n in 0..20_000u32 {
+            h = pixel_seed(h, n as u64);
+            // small indices (one table) and large ones (all four bytes)
+            let i = if n % 2 == 0 { n % 300 } else { h as u32 };
+            let seed = (h >> 32) as u32;
+            for j in 0..SOBOL_DIMS {
+                let want = u32_to_unit(owen_scramble(sobol(j, i), seed));
+                assert_eq!(
+                    value(j, i, seed).to_bits(),
+                    want.to_bits(),
+                    "dim {j}, index {i}"
+                );
+                if j > 0 {
+                    assert_eq!(sobol_reversed(j, i), sobol(j, i).reverse_bits());
+                }
+            }
+        }
     }
 
     #[test]

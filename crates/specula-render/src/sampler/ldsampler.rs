@@ -25,10 +25,7 @@ pub(super) fn resolution(spp: u32) -> u32 {
 /// direction number is the previous one XOR itself shifted right by one), by bytes of `i`.
 #[inline]
 pub(super) fn sobol_2(i: u32) -> u32 {
-    SOBOL_2[0][(i & 255) as usize]
-        ^ SOBOL_2[1][((i >> 8) & 255) as usize]
-        ^ SOBOL_2[2][((i >> 16) & 255) as usize]
-        ^ SOBOL_2[3][(i >> 24) as usize]
+    super::xor_bytes(&SOBOL_2, i)
 }
 
 /// `SOBOL_2[k][b]`: the contribution of byte k of the index when it equals b.
@@ -42,25 +39,7 @@ const fn sobol_2_tables() -> [[u32; 256]; 4] {
         v[k] = v[k - 1] ^ (v[k - 1] >> 1);
         k += 1;
     }
-    let mut t = [[0u32; 256]; 4];
-    let mut byte = 0;
-    while byte < 4 {
-        let mut b = 0;
-        while b < 256 {
-            let mut r = 0u32;
-            let mut bit = 0;
-            while bit < 8 {
-                if b >> bit & 1 != 0 {
-                    r ^= v[byte * 8 + bit];
-                }
-                bit += 1;
-            }
-            t[byte][b] = r;
-            b += 1;
-        }
-        byte += 1;
-    }
-    t
+    super::byte_tables(&v, false)
 }
 
 pub struct LowDiscrepancy {

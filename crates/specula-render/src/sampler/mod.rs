@@ -264,6 +264,41 @@ pub fn pixel_seed(seed: u64, index: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// A GF(2) generator matrix (`v[k]`: the direction number of index bit k) as byte tables:
+/// `t[k][b]` is the XOR of the direction numbers of byte k's set bits when it equals b, with
+/// its bits reversed when `reversed`, so that [`xor_bytes`] gives the point (reversed) of an
+/// index with four lookups instead of a loop over its bits.
+pub(crate) const fn byte_tables(v: &[u32; 32], reversed: bool) -> [[u32; 256]; 4] {
+    let mut t = [[0u32; 256]; 4];
+    let mut byte = 0;
+    while byte < 4 {
+        let mut b = 0;
+        while b < 256 {
+            let mut r = 0u32;
+            let mut bit = 0;
+            while bit < 8 {
+                if b >> bit & 1 != 0 {
+                    r ^= v[byte * 8 + bit];
+                }
+                bit += 1;
+            }
+            t[byte][b] = if reversed { r.reverse_bits() } else { r };
+            b += 1;
+        }
+        byte += 1;
+    }
+    t
+}
+
+/// The point of index `i` from its matrix's [`byte_tables`].
+#[inline]
+pub(crate) fn xor_bytes(t: &[[u32; 256]; 4], i: u32) -> u32 {
+    t[0][(i & 255) as usize]
+        ^ t[1][((i >> 8) & 255) as usize]
+        ^ t[2][((i >> 16) & 255) as usize]
+        ^ t[3][(i >> 24) as usize]
+}
+
 /// A 32-bit hash of two words (for per-dimension seeds).
 #[inline]
 pub(crate) fn hash2(a: u32, b: u32) -> u32 {

@@ -42,6 +42,7 @@ impl Disk {
         (p, uv, dp_du)
     }
 
+    #[inline(always)]
     pub(super) fn surface(&self, hit: &Hit) -> SurfaceGeometry {
         let (x, y) = (hit.u, hit.v);
         let (p, uv, dp_du) = self.at_local(x, y);
@@ -60,6 +61,7 @@ impl Disk {
         }
     }
 
+    #[inline(always)]
     pub(super) fn sample_position(&self, u: Vec2) -> PositionSample {
         let d = square_to_uniform_disk_concentric(u);
         let (p, uv, _) = self.at_local(d.x, d.y);

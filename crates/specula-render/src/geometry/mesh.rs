@@ -162,6 +162,7 @@ impl TriMesh {
         self.indices[i].map(|k| self.positions[k as usize])
     }
 
+    #[inline(always)]
     pub(super) fn sample_position(&self, u: Vec2) -> PositionSample {
         let pdf = if self.area > 0.0 {
             1.0 / self.area
@@ -224,7 +225,7 @@ impl TriMesh {
         PositionSample { p, n, uv, pdf }
     }
 
-    #[inline]
+    #[inline(always)]
     pub(super) fn surface(&self, hit: &Hit) -> SurfaceGeometry {
         let tri = hit.prim as usize;
         let [p0, p1, p2] = hit.vertices.unwrap_or_else(|| self.triangle(tri));

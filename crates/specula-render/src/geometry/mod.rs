@@ -462,7 +462,23 @@ impl Geometry {
     /// A point drawn uniformly by area over the whole shape, from `u` in [0, 1)². Uses the
     /// same warps as Mitsuba (so the same `u` gives the same point for untransformed shapes).
     /// `pdf` is 1 / area (0 for a shape without area).
+    ///
+    /// Inlined where it is called (light sampling, once a bounce) for the shapes that usually
+    /// emit, so that the sample stays in registers: returned through memory, it was read back
+    /// before the callee's stores could be forwarded (a stall of about a dozen cycles).
+    #[inline(always)]
     pub fn sample_position(&self, u: Vec2) -> PositionSample {
+        match self {
+            Geometry::Mesh(m) => m.sample_position(u),
+            Geometry::Sphere(s) => s.sample_position(u),
+            Geometry::Disk(d) => d.sample_position(u),
+            _ => self.sample_position_other(u),
+        }
+    }
+
+    /// [`Geometry::sample_position`] of cylinders and instances.
+    #[inline(never)]
+    fn sample_position_other(&self, u: Vec2) -> PositionSample {
         match self {
             Geometry::Mesh(m) => m.sample_position(u),
             Geometry::Sphere(s) => s.sample_position(u),
@@ -494,8 +510,22 @@ impl Geometry {
 
     /// Local geometry at a hit reported by the acceleration structure for this shape; `ray`
     /// must be the ray that produced `hit` (spheres re-evaluate `o + t·d`).
-    #[inline]
+    ///
+    /// Inlined into the path loops for meshes, spheres and disks, so that the result stays in
+    /// registers (see [`Geometry::sample_position`]).
+    #[inline(always)]
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
+        match self {
+            Geometry::Mesh(m) => m.surface(hit),
+            Geometry::Sphere(s) => s.surface(ray, hit),
+            Geometry::Disk(d) => d.surface(hit),
+            _ => self.surface_other(ray, hit),
+        }
+    }
+
+    /// [`Geometry::surface`] of cylinders and instances.
+    #[inline(never)]
+    fn surface_other(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
         match self {
             Geometry::Mesh(m) => m.surface(hit),
             Geometry::Sphere(s) => s.surface(ray, hit),

@@ -50,6 +50,7 @@ impl Sphere {
         (uv, dp_du, dp_dv)
     }
 
+    #[inline(always)]
     pub(super) fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
         let p = ray.at(hit.t);
         // Re-project onto the sphere (as Mitsuba does) to reduce the error of o + t·d.
@@ -69,6 +70,7 @@ impl Sphere {
         }
     }
 
+    #[inline(always)]
     pub(super) fn sample_position(&self, u: Vec2) -> PositionSample {
         // warp::square_to_uniform_sphere
         let z = 1.0 - 2.0 * u.y;

@@ -318,11 +318,7 @@ impl ImageBlock {
         let nx = (x1 - x0 + 1) as usize;
         let ny = (y1 - y0 + 1) as usize;
         let taps = (px, py, x0 as usize, y0 as usize, nx, ny);
-        if nx == 4 && ny == 4 {
-            // the commonest case of all (Mitsuba's default Gaussian away from the block's
-            // edges): fixed-size rows, one bounds check for the whole square
-            self.put_square4(taps, v);
-        } else if nx <= 4 && ny <= 4 {
+        if nx <= 4 && ny <= 4 {
             // the commonest case (Mitsuba's default Gaussian, σ = 0.5, radius 2: 4 × 4 taps
             // unless a sample lies exactly on a pixel's edge): both axes' weights at once
             self.put_taps4(taps, v);
@@ -338,7 +334,9 @@ impl ImageBlock {
 
     /// [`Self::put_taps`] for up to 4 × 4 pixels: the 4 x and 4 y weights are evaluated
     /// together as one 8-lane polynomial (the same operations as [`RFilter::eval`], so the same
-    /// weights bit for bit), then each pixel takes one vector multiply-add.
+    /// weights bit for bit), then each pixel takes one vector multiply-add. Exactly 4 × 4 (a
+    /// sample away from the block's edges) goes through fixed-size rows with one bounds check
+    /// for the whole square (the same operations per pixel, so the same sums).
     #[inline(always)]
     fn put_taps4(
         &mut self,
@@ -348,6 +346,20 @@ impl ImageBlock {
         let ew = self.stored_size().0;
         let w = self.filter.eval_xy4((x0 as f32, px), (y0 as f32, py));
         let (wx, wy) = w.split_at(4);
+        if nx == 4 && ny == 4 {
+            let first = y0 * ew + x0;
+            let square = &mut self.data[first..first + 3 * ew + 4];
+            for (k, &wy) in wy.iter().enumerate() {
+                if wy == 0.0 {
+                    continue;
+                }
+                let row: &mut [Vec4; 4] = (&mut square[k * ew..k * ew + 4]).try_into().unwrap();
+                for (d, &w) in row.iter_mut().zip(wx) {
+                    *d += v * (w * wy);
+                }
+            }
+            return;
+        }
         for (k, &wy) in wy[..ny].iter().enumerate() {
             if wy == 0.0 {
                 continue;
@@ -355,29 +367,6 @@ impl ImageBlock {
             let row = (y0 + k) * ew + x0;
             for (d, &w) in self.data[row..row + nx].iter_mut().zip(&wx[..nx]) {
                 *d += v * (w * wy);
-            }
-        }
-    }
-
-    /// [`Self::put_taps4`] for exactly 4 × 4 pixels: the same weights and the same
-    /// operations per pixel (so the same sums bit for bit), without variable-length loops.
-    #[inline(always)]
-    fn put_square4(
-        &mut self,
-        (px, py, x0, y0, _, _): (f32, f32, usize, usize, usize, usize),
-        v: Vec4,
-    ) {
-        let ew = self.stored_size().0;
-        let w = self.filter.eval_xy4((x0 as f32, px), (y0 as f32, py));
-        let first = y0 * ew + x0;
-        let square = &mut self.data[first..first + 3 * ew + 4];
-        for (k, &wy) in w[4..].iter().enumerate() {
-            if wy == 0.0 {
-                continue;
-            }
-            let row: &mut [Vec4; 4] = (&mut square[k * ew..k * ew + 4]).try_into().unwrap();
-            for (d, &wx) in row.iter_mut().zip(&w[..4]) {
-                *d += v * (wx * wy);
             }
         }
     }

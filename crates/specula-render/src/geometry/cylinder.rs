@@ -26,6 +26,7 @@ pub struct Cylinder {
 }
 
 impl Cylinder {
+    #[inline(never)]
     pub(super) fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
         let local = self.to_object.transform_point3(ray.at(hit.t));
         // re-project onto the surface (Mitsuba shifts p along the normal by the same amount)
@@ -56,6 +57,7 @@ impl Cylinder {
         }
     }
 
+    #[inline(never)]
     pub(super) fn sample_position(&self, u: Vec2) -> PositionSample {
         let (s, c) = (2.0 * PI * u.y).sin_cos();
         let p = self.to_world.transform_point3(Vec3::new(c, s, u.x));

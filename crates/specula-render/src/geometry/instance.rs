@@ -60,6 +60,20 @@ pub struct Instance {
 
 impl Instance {
     /// The group shape's surface at the hit, carried to world space.
+    /// Not sampled (instances cannot emit): a point of the group shape carried to world
+    /// space, density 0.
+    #[inline(never)]
+    pub(super) fn sample_position(&self, u: Vec2) -> PositionSample {
+        let ps = self.group.shapes[self.member as usize].sample_position(u);
+        PositionSample {
+            p: self.to_world.transform_point3(ps.p),
+            n: (self.nm * ps.n).normalize_or(ps.n),
+            uv: ps.uv,
+            pdf: 0.0,
+        }
+    }
+
+    #[inline(never)]
     pub(super) fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
         let local_ray = Ray {
             o: self.to_object.transform_point3(ray.o),

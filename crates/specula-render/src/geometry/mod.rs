@@ -466,34 +466,15 @@ impl Geometry {
     /// Inlined where it is called (light sampling, once a bounce) for the shapes that usually
     /// emit, so that the sample stays in registers: returned through memory, it was read back
     /// before the callee's stores could be forwarded (a stall of about a dozen cycles).
+    /// (Cylinders and instances rarely emit: their methods stay out of line.)
     #[inline(always)]
     pub fn sample_position(&self, u: Vec2) -> PositionSample {
         match self {
             Geometry::Mesh(m) => m.sample_position(u),
             Geometry::Sphere(s) => s.sample_position(u),
             Geometry::Disk(d) => d.sample_position(u),
-            _ => self.sample_position_other(u),
-        }
-    }
-
-    /// [`Geometry::sample_position`] of cylinders and instances.
-    #[inline(never)]
-    fn sample_position_other(&self, u: Vec2) -> PositionSample {
-        match self {
-            Geometry::Mesh(m) => m.sample_position(u),
-            Geometry::Sphere(s) => s.sample_position(u),
-            Geometry::Disk(d) => d.sample_position(u),
             Geometry::Cylinder(c) => c.sample_position(u),
-            // not sampled (instances cannot emit): a point of the group shape, density 0
-            Geometry::Instance(i) => {
-                let ps = i.group.shapes[i.member as usize].sample_position(u);
-                PositionSample {
-                    p: i.to_world.transform_point3(ps.p),
-                    n: (i.nm * ps.n).normalize_or(ps.n),
-                    uv: ps.uv,
-                    pdf: 0.0,
-                }
-            }
+            Geometry::Instance(i) => i.sample_position(u),
         }
     }
 
@@ -513,19 +494,9 @@ impl Geometry {
     ///
     /// Inlined into the path loops for meshes, spheres and disks, so that the result stays in
     /// registers (see [`Geometry::sample_position`]).
+    /// (Cylinders' and instances' methods stay out of line.)
     #[inline(always)]
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
-        match self {
-            Geometry::Mesh(m) => m.surface(hit),
-            Geometry::Sphere(s) => s.surface(ray, hit),
-            Geometry::Disk(d) => d.surface(hit),
-            _ => self.surface_other(ray, hit),
-        }
-    }
-
-    /// [`Geometry::surface`] of cylinders and instances.
-    #[inline(never)]
-    fn surface_other(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
         match self {
             Geometry::Mesh(m) => m.surface(hit),
             Geometry::Sphere(s) => s.surface(ray, hit),

@@ -4,6 +4,7 @@ same load, one thread: the least user + system time of `--repeat` runs each.
 
     python3 scripts/compare_cpu.py OLD NEW                      # cbox, meshes, veach_mis, envmap_spheres
     python3 scripts/compare_cpu.py OLD NEW --spp 32 --repeat 9 --scenes cbox
+    python3 scripts/compare_cpu.py OLD NEW --sampler sobol  # the sampler time to equal error uses
 
 Scenes are ../shared/scenes/NAME.xml at their own film size. On a machine whose speed drifts,
 only the ratio printed in the last column means anything; for a change of a few percent use
@@ -19,10 +20,12 @@ root = pathlib.Path(__file__).resolve().parent.parent
 shared = root.parent / "shared"
 
 
-def cpu(exe, scene, spp, out):
+def cpu(exe, scene, spp, out, sampler=None):
     r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    extra = ["--sampler", sampler] if sampler else []
     subprocess.run([exe, "render", str(shared / "scenes" / f"{scene}.xml"), "--spp", str(spp),
-                    "--threads", "1", "--quiet", "-o", out], check=True, capture_output=True)
+                    "--threads", "1", "--quiet", "-o", out] + extra, check=True,
+                   capture_output=True)
     r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     return (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
 
@@ -34,6 +37,7 @@ def main():
     ap.add_argument("--spp", type=int, default=16)
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--scenes", default="cbox,meshes,veach_mis,envmap_spheres")
+    ap.add_argument("--sampler", help="render with this sampler (default: the scene's own)")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         out = str(pathlib.Path(tmp) / "out.exr")
@@ -42,8 +46,8 @@ def main():
         for s in a.scenes.split(","):
             old = new = float("inf")
             for _ in range(a.repeat):
-                old = min(old, cpu(a.old, s, a.spp, out))
-                new = min(new, cpu(a.new, s, a.spp, out))
+                old = min(old, cpu(a.old, s, a.spp, out, a.sampler))
+                new = min(new, cpu(a.new, s, a.spp, out, a.sampler))
             print(f"| {s} | {old:.3f} | {new:.3f} | {new / old:.3f} |", flush=True)
 
 

@@ -153,6 +153,12 @@ pub struct Sobol {
     seed: u64,
     /// the current pixel's 64-bit hash
     pixel_seed: u64,
+    /// The pixel's per-dimension hashes (`pixel_seed(pixel_seed, d)`) of the dimensions
+    /// whose bit is set in `cached`, and that of the 4D block's index shuffle: a pixel's
+    /// samples use the same ones, so each is hashed once per pixel instead of once per sample.
+    hashes: [u64; CACHED_DIMS],
+    cached: u64,
+    block_hash: u64,
     sample: u32,
     /// `sample` with its bits reversed (what the index shuffle hashes)
     sample_reversed: u32,
@@ -166,14 +172,32 @@ pub struct Sobol {
 /// Dimension key of the 4D block's index shuffle (no sampler dimension reaches it).
 const BLOCK_KEY: u32 = u32::MAX;
 
+/// Dimensions whose hashes a sampler keeps per pixel (a path of 8 bounces uses about 32; at
+/// most 64, one bit each in `Sobol::cached`).
+const CACHED_DIMS: usize = 48;
+
+/// Three 32-bit seeds (index shuffle, first and second coordinate) from a dimension's hash.
+#[inline]
+fn split_seeds(z: u64) -> (u32, u32, u32) {
+    let (lo, hi) = (z as u32, (z >> 32) as u32);
+    (lo, hi, lo ^ hi.rotate_left(13))
+}
+
 impl Sobol {
     /// Three 32-bit seeds for dimension `d` of the current pixel (index shuffle, first and
     /// second coordinate) from one 64-bit hash.
     #[inline]
-    fn seeds(&self, d: u32) -> (u32, u32, u32) {
-        let z = pixel_seed(self.pixel_seed, d as u64);
-        let (lo, hi) = (z as u32, (z >> 32) as u32);
-        (lo, hi, lo ^ hi.rotate_left(13))
+    fn seeds(&mut self, d: u32) -> (u32, u32, u32) {
+        let z = match self.hashes.get_mut(d as usize) {
+            Some(h) if self.cached >> d & 1 != 0 => *h,
+            Some(h) => {
+                *h = pixel_seed(self.pixel_seed, d as u64);
+                self.cached |= 1 << d;
+                *h
+            }
+            None => pixel_seed(self.pixel_seed, d as u64),
+        };
+        split_seeds(z)
     }
 
     /// The index of sample `i` in a pixel's sequence, shuffled by `seed`: bit b of the result
@@ -281,6 +305,9 @@ impl PixelSampler for Sobol {
         Sobol {
             seed: seed.wrapping_add(settings.seed),
             pixel_seed: 0,
+            hashes: [0; CACHED_DIMS],
+            cached: 0,
+            block_hash: 0,
             sample: 0,
             sample_reversed: 0,
             dim: 0,
@@ -290,6 +317,8 @@ impl PixelSampler for Sobol {
     }
     fn start_pixel(&mut self, pixel: u64) {
         self.pixel_seed = pixel_seed(self.seed, pixel);
+        self.cached = 0;
+        self.block_hash = pixel_seed(self.pixel_seed, BLOCK_KEY as u64);
     }
     #[inline]
     fn start_sample(&mut self, sample: u32, dimension: u32) {
@@ -297,7 +326,7 @@ impl PixelSampler for Sobol {
         self.sample_reversed = sample.reverse_bits();
         self.dim = dimension;
         if dimension <= BLOCK[1].0 {
-            self.block_index = self.shuffle(self.seeds(BLOCK_KEY).0);
+            self.block_index = self.shuffle(split_seeds(self.block_hash).0);
         }
     }
 }
@@ -406,6 +435,33 @@ mod tests {
                 let v = values2(j, i, seed, sy);
                 assert_eq!(v.x.to_bits(), value(j, i, seed).to_bits(), "dim {j}, {i}");
                 assert_eq!(v.y.to_bits(), value(j + 1, i, sy).to_bits(), "dim {j}, {i}");
+            }
+        }
+    }
+
+    #[test]
+    fn cached_dimension_hashes_give_the_same_values() {
+        // one sampler over pixels and samples (its cache filled, reset per pixel, deeper
+        // than it holds, samples starting at other dimensions) against a fresh sampler per
+        // sample, which hashes every dimension anew
+        let settings = SamplerSettings::new(SamplerKind::Sobol, 16);
+        let mut kept = Sobol::new(&settings, 16, 11);
+        for pixel in [5u64, 9, 5] {
+            kept.start_pixel(pixel);
+            for sample in 0..16 {
+                let first = if sample % 5 == 4 { 3 } else { 0 };
+                let mut fresh = Sobol::new(&settings, 16, 11);
+                fresh.start_pixel(pixel);
+                fresh.start_sample(sample, first);
+                kept.start_sample(sample, first);
+                for d in first..CACHED_DIMS as u32 + 8 {
+                    let (a, b) = if d % 3 == 0 {
+                        (Vec2::splat(kept.next_1d()), Vec2::splat(fresh.next_1d()))
+                    } else {
+                        (kept.next_2d(), fresh.next_2d())
+                    };
+                    assert_eq!(a, b, "pixel {pixel}, sample {sample}, dimension {d}");
+                }
             }
         }
     }

@@ -78,6 +78,8 @@ pub(super) fn sample_cdf(cdf: &[f32], u: f32) -> (usize, f32) {
 /// instead of over the whole CDF, with no division; it returns exactly what the binary search
 /// over the whole CDF returns (same bins, same images).
 pub(super) mod guide {
+    use super::{to_f32, to_index};
+
     /// Buckets for a CDF of `n` bins: about four bins per bucket.
     #[inline]
     pub fn buckets(n: usize) -> usize {
@@ -87,8 +89,8 @@ pub(super) mod guide {
     /// The bucket of `x` among `m` (`m` as f32 too).
     #[inline]
     pub(super) fn bucket(x: f32, m: usize, mf: f32) -> usize {
-        // `as usize` saturates: negative x gives 0
-        ((x * mf) as usize).min(m - 1)
+        // `as u32` saturates: negative x gives 0
+        to_index(x * mf).min(m - 1)
     }
 
     /// Appends the guide (`buckets(n) + 1` entries) of a CDF of `n + 1` non-decreasing
@@ -96,7 +98,7 @@ pub(super) mod guide {
     pub fn build(cdf: &[f32], out: &mut Vec<u32>) {
         let inner = &cdf[1..cdf.len() - 1];
         let m = buckets(cdf.len() - 1);
-        let mf = m as f32;
+        let mf = to_f32(m);
         let mut c = 0;
         for k in 0..m {
             while c < inner.len() && bucket(inner[c], m, mf) < k {
@@ -112,11 +114,25 @@ pub(super) mod guide {
     #[inline]
     pub fn sample(cdf: &[f32], start: &[u32], u: f32) -> (usize, f32) {
         let m = start.len() - 1;
-        let k = bucket(u, m, m as f32);
+        let k = bucket(u, m, to_f32(m));
         let (lo, hi) = (start[k] as usize, start[k + 1] as usize);
         let idx = lo + cdf[1 + lo..1 + hi].partition_point(|&c| c <= u);
         super::bin_offset(cdf, idx, u)
     }
+}
+
+/// `n as f32` through u32 (one instruction on x86-64, where usize → f32 is a sequence of
+/// eight); the same value for every map size and index (all below 2³²).
+#[inline(always)]
+fn to_f32(n: usize) -> f32 {
+    n as u32 as f32
+}
+
+/// `x as usize` (saturating: negative and NaN give 0) through u32, which x86-64 converts in
+/// fewer instructions; the same value wherever the result is then clamped below 2³².
+#[inline(always)]
+fn to_index(x: f32) -> usize {
+    x as u32 as usize
 }
 
 #[inline]
@@ -285,16 +301,16 @@ impl Envmap {
     pub(super) fn bilinear_cell(&self, uv: Vec2) -> (usize, Vec2) {
         let (w, h) = (self.width, self.height);
         let mut uv = uv;
-        uv.x -= 0.5 / w as f32;
+        uv.x -= 0.5 / to_f32(w);
         uv.x -= uv.x.floor();
         // Mitsuba also wraps v (`uv -= floor(uv)`), which would send the exact south pole
         // (v = 1) to the north pole; its f32 acos never yields exactly 1 there (it returns
         // the bottom row), so v is only clamped here.
         uv.y = uv.y.clamp(0.0, 1.0);
-        uv *= Vec2::new(w as f32, (h - 1) as f32);
-        let px = (uv.x as usize).min(w - 1);
-        let py = (uv.y as usize).min(h - 2);
-        (py * (w + 1) + px, uv - Vec2::new(px as f32, py as f32))
+        uv *= Vec2::new(to_f32(w), to_f32(h - 1));
+        let px = to_index(uv.x).min(w - 1);
+        let py = to_index(uv.y).min(h - 2);
+        (py * (w + 1) + px, uv - Vec2::new(to_f32(px), to_f32(py)))
     }
 
     /// The radiance (times `scale`) interpolated with weights `w1` in the cell from texel `i`.
@@ -412,13 +428,13 @@ impl Envmap {
             * (1.570_728_8 + ay * (-0.212_114_4 + ay * (0.074_261 - 0.018_729_3 * ay)));
         let theta = if y < 0.0 { PI - a } else { a };
         let (w, h) = (self.width, self.height);
-        let mut u = phi * (0.5 / PI) - 0.5 / w as f32;
+        let mut u = phi * (0.5 / PI) - 0.5 / to_f32(w);
         if u < 0.0 {
             u += 1.0;
         }
         // (`as i32` of NaN is 0: a degenerate direction still gives a texel in the map)
-        let px = ((u * w as f32) as i32).clamp(0, w as i32 - 1) as usize;
-        let py = ((theta * (1.0 / PI) * (h - 1) as f32) as i32).clamp(0, h as i32 - 2) as usize;
+        let px = ((u * to_f32(w)) as i32).clamp(0, w as i32 - 1) as usize;
+        let py = ((theta * (1.0 / PI) * to_f32(h - 1)) as i32).clamp(0, h as i32 - 2) as usize;
         py * (w + 1) + px
     }
 
@@ -469,7 +485,7 @@ impl Envmap {
             return None;
         }
         // u of the lat-long map (φ / 2π, a half texel on from the cell's corner) and cos θ
-        let x = (i as f32 + su + 0.5) / w as f32;
+        let x = (to_f32(i) + su + 0.5) / to_f32(w);
         let (c0, c1) = (self.cos_theta[j], self.cos_theta[j + 1]);
         let cos_t = c0 + (c1 - c0) * sv;
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();

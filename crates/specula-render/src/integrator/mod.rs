@@ -616,6 +616,26 @@ impl Scene {
         wl: Option<&Wavelengths>,
     ) -> Rgb {
         let mut out = Rgb::ZERO;
+        // the commonest case, one `constant` light in RGB mode, without the general loop's
+        // dispatch (the same operations: the loop's one iteration written out)
+        if let ([li], None) = (&self.infinite_lights[..], wl) {
+            if let Light::Other(crate::emitters::Emitter::Constant(c)) = &self.lights[*li as usize]
+            {
+                if c.radiance.is_black() {
+                    return out;
+                }
+                let w = match bsdf_pdf {
+                    None => 1.0,
+                    Some(p) => mis(
+                        p,
+                        specula_bsdf::warp::UNIFORM_SPHERE_PDF
+                            * self.light_select_pdf()
+                            * light_frac,
+                    ),
+                };
+                return out + c.radiance * w;
+            }
+        }
         for &li in &self.infinite_lights {
             if let Light::Other(e) = &self.lights[li as usize] {
                 let (le, pdf) = match bsdf_pdf {

@@ -141,6 +141,22 @@ pub(crate) fn solve<const P: usize>(mut m: [[f64; P]; P], mut b: [f64; P]) -> Op
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
+/// ⌊x⌋, bit for bit `f32::floor` (signed zeros, ±∞ and NaN included), inline: x86-64's
+/// baseline has no rounding instruction (SSE4.1's `roundss`), so `f32::floor` is a call into
+/// libm, which also makes its caller save every live vector register. Below 2²³ in magnitude
+/// the truncation to i32 is exact and is corrected by one where it rounded up; from 2²³ on
+/// every f32 is an integer already (and ±∞, NaN are their own floor).
+#[inline(always)]
+pub fn floor(x: f32) -> f32 {
+    if x.abs() < 8_388_608.0 {
+        let t = x as i32 as f32;
+        // floor keeps the sign of x (−0.0 stays −0.0, (−1, 0) gives −1, [0, 1) gives +0)
+        (if t > x { t - 1.0 } else { t }).copysign(x)
+    } else {
+        x
+    }
+}
+
 /// sin x and cos x for |x| ≤ π/4, without range reduction: the minimax polynomials of
 /// Cephes' `sinf`/`cosf` (S. Moshier; degree 7 and 8, error about 1 ulp on this interval).
 /// Beyond π/4 the error grows; callers reduce the argument first (see [`sincos_2pi`]).
@@ -159,7 +175,7 @@ pub fn sincos_quarter(x: f32) -> (f32, f32) {
 #[inline(always)]
 pub fn sincos_2pi(u: f32) -> (f32, f32) {
     let t = 4.0 * u;
-    let q = (t + 0.5).floor();
+    let q = floor(t + 0.5);
     let (s, c) = sincos_quarter((t - q) * std::f32::consts::FRAC_PI_2);
     match (q as i32) & 3 {
         0 => (s, c),
@@ -207,6 +223,52 @@ pub fn atan2(y: f32, x: f32) -> f32 {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn floor_is_libm_floor_bit_for_bit() {
+        let mut special = vec![
+            0.0f32,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            0.999_999_94,
+            -0.999_999_94,
+            8_388_607.5,
+            -8_388_607.5,
+            8_388_608.0,
+            -8_388_608.0,
+            8_388_609.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            1e-45,
+            -1e-45,
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            2_147_483_648.0,
+            -2_147_483_904.0,
+        ];
+        // every f32 bit pattern's neighbourhood, sampled: random bits, and dense values
+        // around small integers
+        let mut h = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..200_000 {
+            h ^= h << 13;
+            h ^= h >> 7;
+            h ^= h << 17;
+            special.push(f32::from_bits(h as u32));
+            special.push(((h >> 40) as f32 / 16_777_216.0 - 0.5) * 64.0);
+        }
+        for x in special {
+            let (a, b) = (super::floor(x), x.floor());
+            assert!(
+                a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                "floor({x:e}) = {a:e}, libm {b:e}"
+            );
+        }
+    }
+
     use super::*;
     #[test]
     fn erf_known_values() {

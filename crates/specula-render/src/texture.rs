@@ -24,6 +24,7 @@ use crate::core::{Result, SceneError};
 use crate::image_io::{read_image_raw_prefetched, srgb_to_linear, Image, Pixels, RawImage};
 use crate::xml::{Node, PropValue};
 use glam::{Mat3, Mat4, Vec2, Vec3};
+use specula_bsdf::math::floor;
 use specula_bsdf::{Rgb, ShadingPoint, Texture};
 use std::path::Path;
 
@@ -82,8 +83,8 @@ impl Checkerboard {
     #[inline]
     fn is_color0(&self, uv: Vec2) -> bool {
         let uv = apply_uv(&self.to_uv, uv);
-        let mx = uv.x - uv.x.floor() > 0.5;
-        let my = uv.y - uv.y.floor() > 0.5;
+        let mx = uv.x - floor(uv.x) > 0.5;
+        let my = uv.y - floor(uv.y) > 0.5;
         mx == my
     }
 }
@@ -459,14 +460,14 @@ impl Bitmap {
         let (w, h) = (self.width as i64, self.height as i64);
         match self.filter {
             FilterType::Nearest => {
-                let x = (uv.x * self.width as f32).floor() as i64;
-                let y = (uv.y * self.height as f32).floor() as i64;
+                let x = floor(uv.x * self.width as f32) as i64;
+                let y = floor(uv.y * self.height as f32) as i64;
                 self.texel(self.wrap.wrap(x, w), self.wrap.wrap(y, h))
             }
             FilterType::Bilinear => {
                 let px = uv.x * self.width as f32 - 0.5;
                 let py = uv.y * self.height as f32 - 0.5;
-                let (fx, fy) = (px.floor(), py.floor());
+                let (fx, fy) = (floor(px), floor(py));
                 let (w1x, w1y) = (px - fx, py - fy);
                 let (w0x, w0y) = (1.0 - w1x, 1.0 - w1y);
                 let (ix, iy) = (fx as i64, fy as i64);
@@ -541,7 +542,7 @@ impl Bitmap {
         let (w, h) = (self.width as i64, self.height as i64);
         let px = uv.x * self.width as f32 - 0.5;
         let py = uv.y * self.height as f32 - 0.5;
-        let (fx, fy) = (px.floor(), py.floor());
+        let (fx, fy) = (floor(px), floor(py));
         let (w1x, w1y) = (px - fx, py - fy);
         let (w0x, w0y) = (1.0 - w1x, 1.0 - w1y);
         let (ix, iy) = (fx as i64, fy as i64);

@@ -546,7 +546,8 @@ impl Merl {
         if !(xh.is_finite() && xd.is_finite() && xp.is_finite()) {
             return Spectrum::ZERO;
         }
-        let (h0, d0, pf) = (xh.floor(), xd.floor(), xp.floor());
+        let floor = crate::math::floor;
+        let (h0, d0, pf) = (floor(xh), floor(xd), floor(xp));
         let (th, td, tp) = (xh - h0, xd - d0, xp - pf);
         let h0 = h0 as usize;
         let d0 = d0 as usize;

@@ -246,7 +246,7 @@ impl Rgl {
             theta2u(theta_m),
             phi2u(if self.isotropic { phi_m - phi_i } else { phi_m }),
         );
-        u_m.y -= u_m.y.floor();
+        u_m.y -= crate::math::floor(u_m.y);
         let params = [phi_i, theta_i];
         let (s, vndf_pdf) = self.vndf.invert(u_m, &params);
         let sin_m = (m.x * m.x + m.y * m.y).sqrt();

@@ -302,7 +302,7 @@ impl Envmap {
         let (w, h) = (self.width, self.height);
         let mut uv = uv;
         uv.x -= 0.5 / to_f32(w);
-        uv.x -= uv.x.floor();
+        uv.x -= specula_bsdf::math::floor(uv.x);
         // Mitsuba also wraps v (`uv -= floor(uv)`), which would send the exact south pole
         // (v = 1) to the north pole; its f32 acos never yields exactly 1 there (it returns
         // the bottom row), so v is only clamped here.

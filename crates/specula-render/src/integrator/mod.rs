@@ -615,27 +615,40 @@ impl Scene {
         light_frac: f32,
         wl: Option<&Wavelengths>,
     ) -> Rgb {
-        let mut out = Rgb::ZERO;
-        // the commonest case, one `constant` light in RGB mode, without the general loop's
-        // dispatch (the same operations: the loop's one iteration written out)
+        let out = Rgb::ZERO;
+        // the commonest cases, one `constant` or `envmap` light in RGB mode, without the
+        // general loop's dispatch (the same operations: the loop's one iteration written out)
         if let ([li], None) = (&self.infinite_lights[..], wl) {
-            if let Light::Other(crate::emitters::Emitter::Constant(c)) = &self.lights[*li as usize]
-            {
-                if c.radiance.is_black() {
-                    return out;
+            use crate::emitters::Emitter;
+            let (le, pdf) = match (&self.lights[*li as usize], bsdf_pdf) {
+                (Light::Other(Emitter::Constant(c)), _) => {
+                    (c.radiance, specula_bsdf::warp::UNIFORM_SPHERE_PDF)
                 }
-                let w = match bsdf_pdf {
-                    None => 1.0,
-                    Some(p) => mis(
-                        p,
-                        specula_bsdf::warp::UNIFORM_SPHERE_PDF
-                            * self.light_select_pdf()
-                            * light_frac,
-                    ),
-                };
-                return out + c.radiance * w;
+                (Light::Other(Emitter::Envmap(e)), Some(_)) => e.eval_pdf(d),
+                (Light::Other(Emitter::Envmap(e)), None) => (e.eval(d), 0.0),
+                _ => return self.infinite_radiance_all(d, bsdf_pdf, light_frac, wl),
+            };
+            if le.is_black() {
+                return out;
             }
+            let w = match bsdf_pdf {
+                None => 1.0,
+                Some(p) => mis(p, pdf * self.light_select_pdf() * light_frac),
+            };
+            return out + le * w;
         }
+        self.infinite_radiance_all(d, bsdf_pdf, light_frac, wl)
+    }
+
+    /// [`Scene::infinite_radiance`] over every infinite light.
+    fn infinite_radiance_all(
+        &self,
+        d: Vec3,
+        bsdf_pdf: Option<f32>,
+        light_frac: f32,
+        wl: Option<&Wavelengths>,
+    ) -> Rgb {
+        let mut out = Rgb::ZERO;
         for &li in &self.infinite_lights {
             if let Light::Other(e) = &self.lights[li as usize] {
                 let (le, pdf) = match bsdf_pdf {

@@ -393,6 +393,13 @@ pub trait BsdfModel {
         u1: f32,
         u2: Vec2,
     ) -> Option<BsdfSample>;
+    /// Whether `sample` reads `u1` at all (a model with one lobe does not): a renderer may
+    /// then leave the value undrawn (its sampler still steps over the dimension, so the
+    /// other dimensions keep their values). `true` unless the model says otherwise.
+    #[inline]
+    fn sample_reads_u1(&self) -> bool {
+        true
+    }
     /// `eval` and `pdf` together (models that share work between them override this; a
     /// renderer needs both for multiple importance sampling).
     #[inline]

@@ -451,6 +451,56 @@ fn chi2_twosided() {
 fn chi2_blendbsdf() {
     run_statistical("blendbsdf");
 }
+/// A model that says its `sample` does not read `u1` (so that renderers leave it undrawn)
+/// samples the same bits whatever `u1` is, on every configuration of the case list and on
+/// a few more; the one-lobe models do say so, and the multiple-scattering conductor, which
+/// picks a lobe with `u1`, does not.
+#[test]
+fn models_not_reading_u1_sample_the_same_for_any_u1() {
+    let mut specs: Vec<String> = cases().iter().map(|c| c.spec.clone()).collect();
+    specs.extend(
+        [
+            "twosided { diffuse reflectance=0.4 }",
+            "twosided { conductor } { roughconductor alpha=0.2 }",
+            "roughconductor distribution=ggx alpha=0.3 multiscatter=true",
+        ]
+        .map(String::from),
+    );
+    let ctx = BsdfContext::RADIANCE;
+    let sp = ShadingPoint::default();
+    let mut skipping = Vec::new();
+    for spec in &specs {
+        let b = parse_spec(spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
+        if b.sample_reads_u1() {
+            continue;
+        }
+        skipping.push(spec.split_whitespace().next().unwrap().to_string());
+        let mut rng = specula_bsdf::rng::Pcg32::new(7, 11);
+        for _ in 0..2000 {
+            let wi = Vec3::new(
+                rng.next_f32() - 0.5,
+                rng.next_f32() - 0.5,
+                rng.next_f32() - 0.3,
+            )
+            .normalize();
+            let u2 = rng.next_vec2();
+            let a = b.sample(&ctx, &sp, wi, 0.01, u2);
+            for u1 in [0.37, 0.99] {
+                let c = b.sample(&ctx, &sp, wi, u1, u2);
+                let bits = |s: &Option<specula_bsdf::BsdfSample>| {
+                    s.map(|s| (s.wo.to_array().map(f32::to_bits), s.pdf.to_bits()))
+                };
+                assert_eq!(bits(&a), bits(&c), "{spec}: wi {wi}, u2 {u2}, u1 {u1}");
+            }
+        }
+    }
+    for model in ["diffuse", "conductor", "roughconductor", "twosided"] {
+        assert!(skipping.iter().any(|m| m == model), "{model}: {skipping:?}");
+    }
+    let ms = parse_spec("roughconductor alpha=0.3 multiscatter=true").unwrap();
+    assert!(ms.sample_reads_u1());
+}
+
 #[test]
 fn lobe_selection_conductor() {
     run_statistical("conductor");

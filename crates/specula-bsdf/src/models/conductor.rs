@@ -37,6 +37,9 @@ impl BsdfModel for Conductor {
     fn flags(&self) -> LobeFlags {
         LobeFlags::DELTA_REFLECTION
     }
+    fn sample_reads_u1(&self) -> bool {
+        false
+    }
     fn eval(&self, _: &BsdfContext, _: &ShadingPoint, _: Vec3, _: Vec3) -> Spectrum {
         Spectrum::ZERO
     }

@@ -24,6 +24,9 @@ impl BsdfModel for Diffuse {
     fn flags(&self) -> LobeFlags {
         LobeFlags::DIFFUSE_REFLECTION
     }
+    fn sample_reads_u1(&self) -> bool {
+        false
+    }
     #[inline]
     fn eval(&self, _: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
         if wi.z <= 0.0 || wo.z <= 0.0 {

@@ -185,6 +185,10 @@ impl BsdfModel for Bsdf {
         dispatch!(self, b => b.flags())
     }
     #[inline]
+    fn sample_reads_u1(&self) -> bool {
+        dispatch!(self, b => b.sample_reads_u1())
+    }
+    #[inline]
     fn eval(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
         dispatch!(self, b => b.eval(ctx, sp, wi, wo))
     }

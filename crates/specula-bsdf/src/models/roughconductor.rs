@@ -245,6 +245,11 @@ impl BsdfModel for RoughConductor {
     fn flags(&self) -> LobeFlags {
         LobeFlags::GLOSSY_REFLECTION
     }
+    /// The single-scattering lobe samples with `u2` alone; the multiple-scattering one
+    /// picks between its lobes with `u1`.
+    fn sample_reads_u1(&self) -> bool {
+        self.multiscatter
+    }
 
     #[inline]
     fn eval(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {

@@ -19,6 +19,9 @@ impl BsdfModel for TwoSided {
     fn flags(&self) -> LobeFlags {
         self.front.flags() | self.back.flags()
     }
+    fn sample_reads_u1(&self) -> bool {
+        self.front.sample_reads_u1() || self.back.sample_reads_u1()
+    }
     #[inline]
     fn eval(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
         if wi.z > 0.0 {

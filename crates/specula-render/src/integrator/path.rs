@@ -86,7 +86,13 @@ impl Scene {
             // (cache misses on a large environment map) with the BSDF's arithmetic
             let smooth = flags.intersects(specula_bsdf::LobeFlags::SMOOTH);
             let u_light = rng.next_2d();
-            let u1 = rng.next_1d();
+            // (a one-lobe model ignores u1: its dimension is stepped over, not computed)
+            let u1 = if bsdf.sample_reads_u1() {
+                rng.next_1d()
+            } else {
+                rng.skip_1d();
+                0.5
+            };
             let u2 = rng.next_2d();
             let light = if smooth {
                 self.sample_light(si.p, u_light)

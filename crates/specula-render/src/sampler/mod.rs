@@ -51,6 +51,13 @@ use specula_bsdf::rng::Pcg32;
 pub trait Sampler {
     fn next_1d(&mut self) -> f32;
     fn next_2d(&mut self) -> Vec2;
+    /// Steps over a 1D dimension whose value would not be used: the dimensions after it
+    /// get the values they get after `next_1d` (a sampler that can skip the value's
+    /// computation overrides this).
+    #[inline]
+    fn skip_1d(&mut self) {
+        self.next_1d();
+    }
 }
 
 /// A PCG32 stream is an independent sampler (dimensions are not tracked).
@@ -388,6 +395,40 @@ pub(crate) mod tests {
                 }
             })
             .collect()
+    }
+
+    /// `skip_1d` steps over a dimension exactly as `next_1d` does: the values after it are
+    /// the same, for every sampler (those overriding it and those that do not).
+    fn skip_matches_next<S: PixelSampler>(kind: SamplerKind) {
+        let s = SamplerSettings::new(kind, 16);
+        let (mut a, mut b) = (S::new(&s, 16, 3), S::new(&s, 16, 3));
+        for pixel in [0u64, 77] {
+            a.start_pixel(pixel);
+            b.start_pixel(pixel);
+            for sample in 0..16 {
+                a.start_sample(sample, 0);
+                b.start_sample(sample, 0);
+                for d in 0..12 {
+                    if d % 3 == 1 {
+                        a.next_1d();
+                        b.skip_1d();
+                    } else {
+                        assert_eq!(a.next_2d(), b.next_2d(), "{kind:?} {pixel} {sample} {d}");
+                    }
+                }
+                assert_eq!(a.next_1d(), b.next_1d(), "{kind:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn skipping_a_dimension_keeps_the_others() {
+        skip_matches_next::<Independent>(SamplerKind::Independent);
+        skip_matches_next::<Stratified>(SamplerKind::Stratified);
+        skip_matches_next::<MultiJitter>(SamplerKind::MultiJitter);
+        skip_matches_next::<Orthogonal>(SamplerKind::Orthogonal);
+        skip_matches_next::<LowDiscrepancy>(SamplerKind::LowDiscrepancy);
+        skip_matches_next::<Sobol>(SamplerKind::Sobol);
     }
 
     /// Every one of the `n` 1D strata holds exactly one of the values.

@@ -297,6 +297,11 @@ impl Sampler for Sobol {
         let (i, j, sx, sy) = self.next();
         values2(j, i, sx, sy)
     }
+    /// A dimension's value depends on its index alone: stepping over it is counting it.
+    #[inline]
+    fn skip_1d(&mut self) {
+        self.dim += 1;
+    }
 }
 
 impl PixelSampler for Sobol {

@@ -400,6 +400,11 @@ pub trait BsdfModel {
     fn sample_reads_u1(&self) -> bool {
         true
     }
+    /// Whether `sample` reads `u2` (a Dirac-only model does not), as [`Self::sample_reads_u1`].
+    #[inline]
+    fn sample_reads_u2(&self) -> bool {
+        true
+    }
     /// `eval` and `pdf` together (models that share work between them override this; a
     /// renderer needs both for multiple importance sampling).
     #[inline]

@@ -12,7 +12,7 @@
 //! - energy conservation (directional albedo ≤ 1 for white parameters, = 1 for lossless ones),
 //! - non-negativity and finiteness on random and degenerate inputs.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use specula_bsdf::check::{self, stats};
 use specula_bsdf::{parse_spec, Bsdf, BsdfContext, BsdfModel, ShadingPoint};
 
@@ -451,30 +451,49 @@ fn chi2_twosided() {
 fn chi2_blendbsdf() {
     run_statistical("blendbsdf");
 }
-/// A model that says its `sample` does not read `u1` (so that renderers leave it undrawn)
-/// samples the same bits whatever `u1` is, on every configuration of the case list and on
-/// a few more; the one-lobe models do say so, and the multiple-scattering conductor, which
-/// picks a lobe with `u1`, does not.
+/// A model that says its `sample` does not read `u1` or `u2` (so that renderers leave it
+/// undrawn) samples the same bits whatever that value is, on every configuration of the
+/// case list and a few more; the one-lobe models say so of `u1`, the Dirac-only ones of
+/// `u2`, and the multiple-scattering conductor, which picks a lobe with `u1`, does not.
 #[test]
-fn models_not_reading_u1_sample_the_same_for_any_u1() {
+fn models_not_reading_a_sample_value_sample_the_same_for_any() {
     let mut specs: Vec<String> = cases().iter().map(|c| c.spec.clone()).collect();
     specs.extend(
         [
             "twosided { diffuse reflectance=0.4 }",
             "twosided { conductor } { roughconductor alpha=0.2 }",
+            "twosided { conductor }",
             "roughconductor distribution=ggx alpha=0.3 multiscatter=true",
+            "dielectric int_ior=1.5",
+            "thindielectric int_ior=1.5",
         ]
         .map(String::from),
     );
     let ctx = BsdfContext::RADIANCE;
     let sp = ShadingPoint::default();
-    let mut skipping = Vec::new();
+    let (mut no_u1, mut no_u2) = (Vec::new(), Vec::new());
+    let bits = |s: &Option<specula_bsdf::BsdfSample>| {
+        s.map(|s| {
+            (
+                s.wo.to_array().map(f32::to_bits),
+                s.pdf.to_bits(),
+                s.weight.0.map(f32::to_bits),
+            )
+        })
+    };
     for spec in &specs {
         let b = parse_spec(spec).unwrap_or_else(|e| panic!("{spec}: {e}"));
-        if b.sample_reads_u1() {
+        let (r1, r2) = (b.sample_reads_u1(), b.sample_reads_u2());
+        let model = spec.split_whitespace().next().unwrap().to_string();
+        if !r1 {
+            no_u1.push(model.clone());
+        }
+        if !r2 {
+            no_u2.push(model);
+        }
+        if r1 && r2 {
             continue;
         }
-        skipping.push(spec.split_whitespace().next().unwrap().to_string());
         let mut rng = specula_bsdf::rng::Pcg32::new(7, 11);
         for _ in 0..2000 {
             let wi = Vec3::new(
@@ -483,19 +502,28 @@ fn models_not_reading_u1_sample_the_same_for_any_u1() {
                 rng.next_f32() - 0.3,
             )
             .normalize();
-            let u2 = rng.next_vec2();
-            let a = b.sample(&ctx, &sp, wi, 0.01, u2);
-            for u1 in [0.37, 0.99] {
-                let c = b.sample(&ctx, &sp, wi, u1, u2);
-                let bits = |s: &Option<specula_bsdf::BsdfSample>| {
-                    s.map(|s| (s.wo.to_array().map(f32::to_bits), s.pdf.to_bits()))
-                };
-                assert_eq!(bits(&a), bits(&c), "{spec}: wi {wi}, u2 {u2}, u1 {u1}");
+            let (u1, u2) = (rng.next_f32(), rng.next_vec2());
+            let a = bits(&b.sample(&ctx, &sp, wi, u1, u2));
+            for k in [0.013f32, 0.37, 0.99] {
+                if !r1 {
+                    let c = bits(&b.sample(&ctx, &sp, wi, k, u2));
+                    assert_eq!(a, c, "{spec}: wi {wi}, u2 {u2}, u1 {k} against {u1}");
+                }
+                if !r2 {
+                    let c = bits(&b.sample(&ctx, &sp, wi, u1, Vec2::new(k, 1.0 - k)));
+                    assert_eq!(
+                        a, c,
+                        "{spec}: wi {wi}, u1 {u1}, u2 ({k}, 1 - {k}) against {u2}"
+                    );
+                }
             }
         }
     }
     for model in ["diffuse", "conductor", "roughconductor", "twosided"] {
-        assert!(skipping.iter().any(|m| m == model), "{model}: {skipping:?}");
+        assert!(no_u1.iter().any(|m| m == model), "{model}: {no_u1:?}");
+    }
+    for model in ["conductor", "dielectric", "thindielectric", "twosided"] {
+        assert!(no_u2.iter().any(|m| m == model), "{model}: {no_u2:?}");
     }
     let ms = parse_spec("roughconductor alpha=0.3 multiscatter=true").unwrap();
     assert!(ms.sample_reads_u1());

@@ -40,6 +40,9 @@ impl BsdfModel for Conductor {
     fn sample_reads_u1(&self) -> bool {
         false
     }
+    fn sample_reads_u2(&self) -> bool {
+        false
+    }
     fn eval(&self, _: &BsdfContext, _: &ShadingPoint, _: Vec3, _: Vec3) -> Spectrum {
         Spectrum::ZERO
     }

@@ -52,6 +52,9 @@ impl BsdfModel for Dielectric {
     fn flags(&self) -> LobeFlags {
         LobeFlags::DELTA_REFLECTION | LobeFlags::DELTA_TRANSMISSION
     }
+    fn sample_reads_u2(&self) -> bool {
+        false
+    }
     fn eval(&self, _: &BsdfContext, _: &ShadingPoint, _: Vec3, _: Vec3) -> Spectrum {
         Spectrum::ZERO
     }

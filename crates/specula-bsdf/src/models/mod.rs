@@ -189,6 +189,10 @@ impl BsdfModel for Bsdf {
         dispatch!(self, b => b.sample_reads_u1())
     }
     #[inline]
+    fn sample_reads_u2(&self) -> bool {
+        dispatch!(self, b => b.sample_reads_u2())
+    }
+    #[inline]
     fn eval(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
         dispatch!(self, b => b.eval(ctx, sp, wi, wo))
     }

@@ -17,6 +17,12 @@ impl BsdfModel for Null {
     fn flags(&self) -> LobeFlags {
         LobeFlags::NULL
     }
+    fn sample_reads_u1(&self) -> bool {
+        false
+    }
+    fn sample_reads_u2(&self) -> bool {
+        false
+    }
     #[inline]
     fn eval(&self, _: &BsdfContext, _: &ShadingPoint, _: Vec3, _: Vec3) -> Spectrum {
         Spectrum::ZERO

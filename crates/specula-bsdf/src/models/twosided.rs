@@ -22,6 +22,9 @@ impl BsdfModel for TwoSided {
     fn sample_reads_u1(&self) -> bool {
         self.front.sample_reads_u1() || self.back.sample_reads_u1()
     }
+    fn sample_reads_u2(&self) -> bool {
+        self.front.sample_reads_u2() || self.back.sample_reads_u2()
+    }
     #[inline]
     fn eval(&self, ctx: &BsdfContext, sp: &ShadingPoint, wi: Vec3, wo: Vec3) -> Spectrum {
         if wi.z > 0.0 {

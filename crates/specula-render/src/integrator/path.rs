@@ -85,15 +85,27 @@ impl Scene {
             // is evaluated, so that the CPU overlaps the light sampler's table lookups
             // (cache misses on a large environment map) with the BSDF's arithmetic
             let smooth = flags.intersects(specula_bsdf::LobeFlags::SMOOTH);
-            let u_light = rng.next_2d();
-            // (a one-lobe model ignores u1: its dimension is stepped over, not computed)
+            // (values that nothing reads — the light sample of a material without smooth
+            // lobes, the lobe choice of a one-lobe model, the direction of a Dirac-only one —
+            // are stepped over, not computed: the other dimensions keep their values)
+            let u_light = if smooth {
+                rng.next_2d()
+            } else {
+                rng.skip_2d();
+                Vec2::ZERO
+            };
             let u1 = if bsdf.sample_reads_u1() {
                 rng.next_1d()
             } else {
                 rng.skip_1d();
                 0.5
             };
-            let u2 = rng.next_2d();
+            let u2 = if bsdf.sample_reads_u2() {
+                rng.next_2d()
+            } else {
+                rng.skip_2d();
+                Vec2::splat(0.5)
+            };
             let light = if smooth {
                 self.sample_light(si.p, u_light)
             } else {

@@ -58,6 +58,11 @@ pub trait Sampler {
     fn skip_1d(&mut self) {
         self.next_1d();
     }
+    /// [`Sampler::skip_1d`] for a 2D dimension.
+    #[inline]
+    fn skip_2d(&mut self) {
+        self.next_2d();
+    }
 }
 
 /// A PCG32 stream is an independent sampler (dimensions are not tracked).
@@ -412,6 +417,9 @@ pub(crate) mod tests {
                     if d % 3 == 1 {
                         a.next_1d();
                         b.skip_1d();
+                    } else if d % 4 == 2 {
+                        a.next_2d();
+                        b.skip_2d();
                     } else {
                         assert_eq!(a.next_2d(), b.next_2d(), "{kind:?} {pixel} {sample} {d}");
                     }

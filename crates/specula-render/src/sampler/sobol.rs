@@ -302,6 +302,10 @@ impl Sampler for Sobol {
     fn skip_1d(&mut self) {
         self.dim += 1;
     }
+    #[inline]
+    fn skip_2d(&mut self) {
+        self.dim += 1;
+    }
 }
 
 impl PixelSampler for Sobol {

@@ -333,6 +333,11 @@ impl SpectrumParam {
     pub fn is_const(&self) -> bool {
         matches!(self, SpectrumParam::Const(_))
     }
+    /// Whether the value comes from a texture (which may read the shading point's uv);
+    /// constants and spectra do not.
+    pub fn is_texture(&self) -> bool {
+        matches!(self, SpectrumParam::Texture(_))
+    }
 }
 
 impl From<Spectrum> for SpectrumParam {
@@ -366,6 +371,10 @@ impl FloatParam {
             FloatParam::Const(c) => *c,
             FloatParam::Texture(t) => t.mean().luminance(),
         }
+    }
+    /// Whether the value comes from a texture (which may read the shading point's uv).
+    pub fn is_texture(&self) -> bool {
+        matches!(self, FloatParam::Texture(_))
     }
 }
 

@@ -144,6 +144,32 @@ impl Bsdf {
         }
     }
 
+    /// Whether evaluating or sampling the model may read the shading point's uv
+    /// ([`ShadingPoint::uv`]): false only for the models below whose parameters are all
+    /// constants or spectra (no texture); every other model answers true, whatever its
+    /// parameters. A renderer may leave uv unset (and skip computing it) for a model that
+    /// answers false.
+    pub fn reads_uv(&self) -> bool {
+        match self {
+            Bsdf::Diffuse(b) => b.reflectance.is_texture(),
+            Bsdf::Conductor(b) => {
+                b.eta.is_texture() || b.k.is_texture() || b.specular_reflectance.is_texture()
+            }
+            Bsdf::RoughConductor(b) => {
+                b.alpha_u.is_texture()
+                    || b.alpha_v.is_texture()
+                    || b.eta.is_texture()
+                    || b.k.is_texture()
+                    || b.specular_reflectance.is_texture()
+            }
+            Bsdf::Dielectric(b) => {
+                b.specular_reflectance.is_texture() || b.specular_transmittance.is_texture()
+            }
+            Bsdf::TwoSided(b) => b.front.reads_uv() || b.back.reads_uv(),
+            _ => true,
+        }
+    }
+
     /// Whether any of the BSDFs a wrapper nests reads the local geometry (out of line, so
     /// that the leaf models' answer stays one inlined comparison).
     #[inline(never)]

@@ -288,6 +288,7 @@ impl Geometry {
             flip_normals,
             to_world: obj_to_world,
             to_object: obj_to_world.inverse(),
+            uv: true,
         })
     }
 }

@@ -19,6 +19,11 @@ pub struct Sphere {
     /// Object (unit sphere) to world: `to_world · translate(center) · scale(radius)`.
     pub to_world: Mat4,
     pub to_object: Mat4,
+    /// Whether anything reads the uv of the sphere's points (its BSDF's textures, a textured
+    /// emission, an AOV); the scene sets it false when nothing does, and [`Sphere::param`]
+    /// then skips the uv's trigonometry (∂p/∂u, ∂p/∂v and so the shading frame need none,
+    /// and are computed either way).
+    pub uv: bool,
 }
 
 impl Sphere {
@@ -28,9 +33,13 @@ impl Sphere {
     pub(super) fn param(&self, p: Vec3) -> (Vec2, Vec3, Vec3) {
         let local = self.to_object.transform_point3(p);
         let rd2 = local.x * local.x + local.y * local.y;
-        let theta = unit_angle_z(local);
-        let phi = phi_positive(local.y, local.x);
-        let uv = Vec2::new(phi * INV_TWO_PI, theta * INV_PI);
+        let uv = if self.uv {
+            let theta = unit_angle_z(local);
+            let phi = phi_positive(local.y, local.x);
+            Vec2::new(phi * INV_TWO_PI, theta * INV_PI)
+        } else {
+            Vec2::ZERO
+        };
         let (dp_du, dp_dv) = if rd2 > 0.0 {
             let rd = rd2.sqrt();
             let (cos_phi, sin_phi) = (local.x / rd, local.y / rd);

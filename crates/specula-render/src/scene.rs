@@ -703,9 +703,10 @@ fn shape_attributes(geom: &Geometry) -> Option<Vec<(String, usize)>> {
 const BVH_BESIDE: usize = 4096;
 
 /// Marks the spheres whose uv nothing reads (no texture in their BSDF, no textured emission,
-/// no AOV integrator), so that their hits skip the uv's trigonometry (an atan2 and an asin
-/// per hit: 2–3 % of a sphere scene's instructions). Nothing else changes: the uv is not
-/// read where it is skipped.
+/// no AOV integrator), so that their hits in the path loop skip the uv's trigonometry (an
+/// atan2 and an asin per hit: 2–3 % of a sphere scene's instructions; see
+/// `Geometry::surface_uv`). Nothing else changes: the uv is not read where it is skipped,
+/// and `Geometry::surface` still computes it for every caller.
 fn skip_unread_uv(parts: &mut Parts, bsdfs: &[Bsdf], integrator: &Integrator) {
     if !integrator.aov_channels().is_empty() {
         return;

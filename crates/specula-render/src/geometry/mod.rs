@@ -498,9 +498,17 @@ impl Geometry {
     /// (Cylinders' and instances' methods stay out of line.)
     #[inline(always)]
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
+        self.surface_uv(ray, hit, true)
+    }
+
+    /// [`Geometry::surface`], where `all_uv` false leaves the uv of a sphere that the scene
+    /// marked unread (`Sphere::uv`, see [`crate::scene`]) at zero: for a caller that reads uv
+    /// only as the scene's analysis assumes (BSDF textures, emission; the path loop).
+    #[inline(always)]
+    pub fn surface_uv(&self, ray: &Ray, hit: &Hit, all_uv: bool) -> SurfaceGeometry {
         match self {
             Geometry::Mesh(m) => m.surface(hit),
-            Geometry::Sphere(s) => s.surface(ray, hit),
+            Geometry::Sphere(s) => s.surface(ray, hit, all_uv || s.uv),
             Geometry::Disk(d) => d.surface(hit),
             Geometry::Cylinder(c) => c.surface(ray, hit),
             Geometry::Instance(i) => i.surface(ray, hit),

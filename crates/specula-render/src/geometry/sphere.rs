@@ -19,10 +19,11 @@ pub struct Sphere {
     /// Object (unit sphere) to world: `to_world · translate(center) · scale(radius)`.
     pub to_world: Mat4,
     pub to_object: Mat4,
-    /// Whether anything reads the uv of the sphere's points (its BSDF's textures, a textured
-    /// emission, an AOV); the scene sets it false when nothing does, and [`Sphere::param`]
-    /// then skips the uv's trigonometry (∂p/∂u, ∂p/∂v and so the shading frame need none,
-    /// and are computed either way).
+    /// Whether the renderer reads the uv of the sphere's points (its BSDF's textures, a
+    /// textured emission, an AOV); the scene sets it false when nothing does, and the path
+    /// loop's [`crate::geometry::Geometry::surface_uv`] then skips the uv's trigonometry
+    /// (∂p/∂u, ∂p/∂v and so the shading frame need none, and are computed either way).
+    /// [`crate::geometry::Geometry::surface`] always computes the uv.
     pub uv: bool,
 }
 
@@ -30,10 +31,10 @@ impl Sphere {
     /// The uv of a world point on the sphere, and ∂p/∂u, ∂p/∂v there (Mitsuba's: with `l`
     /// the unit-sphere point, `2π M·(−l.y, l.x, 0)` and `π M·(l.z cos φ, l.z sin φ, −r)`,
     /// r = √(l.x² + l.y²); at the poles ∂p/∂u = 0 and ∂p/∂v = `π M·(1, 0, 0)`).
-    pub(super) fn param(&self, p: Vec3) -> (Vec2, Vec3, Vec3) {
+    pub(super) fn param(&self, p: Vec3, uv: bool) -> (Vec2, Vec3, Vec3) {
         let local = self.to_object.transform_point3(p);
         let rd2 = local.x * local.x + local.y * local.y;
-        let uv = if self.uv {
+        let uv = if uv {
             let theta = unit_angle_z(local);
             let phi = phi_positive(local.y, local.x);
             Vec2::new(phi * INV_TWO_PI, theta * INV_PI)
@@ -60,12 +61,12 @@ impl Sphere {
     }
 
     #[inline(always)]
-    pub(super) fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
+    pub(super) fn surface(&self, ray: &Ray, hit: &Hit, uv: bool) -> SurfaceGeometry {
         let p = ray.at(hit.t);
         // Re-project onto the sphere (as Mitsuba does) to reduce the error of o + t·d.
         let mut n = (p - self.center).normalize_or(Vec3::Z);
         let p = self.center + n * self.radius;
-        let (uv, dp_du, dp_dv) = self.param(p);
+        let (uv, dp_du, dp_dv) = self.param(p, uv);
         if self.flip_normals {
             n = -n;
         }
@@ -87,7 +88,7 @@ impl Sphere {
         let (s, c) = (2.0 * PI * u.x).sin_cos();
         let local = Vec3::new(r * c, r * s, z);
         let p = local * self.radius + self.center;
-        let (uv, _, _) = self.param(p);
+        let (uv, _, _) = self.param(p, true);
         let n = if self.flip_normals { -local } else { local };
         let area = self.area();
         PositionSample {

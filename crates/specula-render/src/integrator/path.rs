@@ -47,7 +47,8 @@ impl Scene {
                 break;
             };
             let shape = hit.shape as usize;
-            let si: SurfaceGeometry = self.geometry[shape].surface(&ray, &hit);
+            // (the uv of spheres whose uv nothing here reads is left at zero)
+            let si: SurfaceGeometry = self.geometry[shape].surface_uv(&ray, &hit, false);
             let wi = si.sh_frame.to_local(-ray.d);
 
             // emission of an area light hit by the previous bounce

@@ -17,6 +17,7 @@
 //! lookup's radiance and pdf come from the same two cache lines, with no per-cell table.
 
 use super::*;
+use crate::core::{to_f32, to_index};
 
 /// Mitsuba's `envmap`: a lat-long environment image with luminance-based importance
 /// sampling.
@@ -119,20 +120,6 @@ pub(super) mod guide {
         let idx = lo + cdf[1 + lo..1 + hi].partition_point(|&c| c <= u);
         super::bin_offset(cdf, idx, u)
     }
-}
-
-/// `n as f32` through u32 (one instruction on x86-64, where usize → f32 is a sequence of
-/// eight); the same value for every map size and index (all below 2³²).
-#[inline(always)]
-fn to_f32(n: usize) -> f32 {
-    n as u32 as f32
-}
-
-/// `x as usize` (saturating: negative and NaN give 0) through u32, which x86-64 converts in
-/// fewer instructions; the same value wherever the result is then clamped below 2³².
-#[inline(always)]
-fn to_index(x: f32) -> usize {
-    x as u32 as usize
 }
 
 #[inline]

@@ -59,7 +59,6 @@ pub struct Instance {
 }
 
 impl Instance {
-    /// The group shape's surface at the hit, carried to world space.
     /// Not sampled (instances cannot emit): a point of the group shape carried to world
     /// space, density 0.
     #[inline(never)]
@@ -73,6 +72,7 @@ impl Instance {
         }
     }
 
+    /// The group shape's surface at the hit, carried to world space.
     #[inline(never)]
     pub(super) fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceGeometry {
         let local_ray = Ray {

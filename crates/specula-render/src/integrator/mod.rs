@@ -130,11 +130,10 @@ impl Scene {
         1.0 / self.light_count_f32()
     }
 
-    /// The number of lights as f32, converted through u32: x86-64 has no instruction for
-    /// u64 → f32 (`usize as f32` is a sequence of eight), and no scene has 2³² lights.
+    /// The number of lights as f32 (through u32, [`crate::core::to_f32`]).
     #[inline]
     fn light_count_f32(&self) -> f32 {
-        self.lights.len() as u32 as f32
+        crate::core::to_f32(self.lights.len())
     }
 
     /// Solid-angle pdf that next-event estimation samples a point at `p_light` (normal `n_light`)
@@ -165,8 +164,8 @@ impl Scene {
         // through u32, which x86-64 converts in one instruction each way (usize takes a
         // sequence); the same values for any light count below 2²⁴
         let nf = self.light_count_f32();
-        let idx = ((u.x * nf) as u32 as usize).min(n - 1);
-        u.x = (u.x * nf - idx as u32 as f32).clamp(0.0, crate::sampler::ONE_MINUS_EPS);
+        let idx = crate::core::to_index(u.x * nf).min(n - 1);
+        u.x = (u.x * nf - crate::core::to_f32(idx)).clamp(0.0, crate::sampler::ONE_MINUS_EPS);
         let sel = self.light_select_pdf();
         match &self.lights[idx] {
             Light::Area { shape, radiance } => {

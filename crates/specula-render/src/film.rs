@@ -289,11 +289,28 @@ impl ImageBlock {
     /// [`ImageBlock::put`] with the sample's weight scaled by `weight` (its value and its
     /// contribution to Σ w alike): adaptive sampling weights a pixel's samples by the inverse
     /// of their number, so that every pixel's samples weigh the same in total.
+    #[inline]
     pub fn put_weighted(&mut self, film_pos: Vec2, value: Rgb, weight: f32) {
         if !film_pos.is_finite() {
             return;
         }
         let v = rgb1(value) * weight;
+        #[cfg(target_arch = "x86_64")]
+        if let RFilter::Gaussian { .. } = self.filter {
+            if std::arch::is_x86_feature_detected!("avx2")
+                // SAFETY: AVX2 is present.
+                && unsafe { self.put_gaussian4x4_avx2(film_pos, v) }
+            {
+                return;
+            }
+        }
+        self.put_any(film_pos, v);
+    }
+
+    /// [`ImageBlock::put_weighted`] of the value-and-weight vector `v`: every filter, every
+    /// footprint.
+    #[inline(never)]
+    fn put_any(&mut self, film_pos: Vec2, v: Vec4) {
         let (ew, eh) = self.stored_size();
         if let RFilter::Box = self.filter {
             let x = floor_i64(film_pos.x) - self.offset.0 as i64;
@@ -369,6 +386,94 @@ impl ImageBlock {
                 *d += v * (w * wy);
             }
         }
+    }
+
+    /// [`ImageBlock::put_any`]'s commonest case, a Gaussian footprint of exactly 4 × 4 stored
+    /// pixels (Mitsuba's default, σ = 0.5, radius 2, away from a block's edges), with AVX2:
+    /// the same operations in the same order as [`Self::put_taps4`] (no fused multiply-adds),
+    /// so the same sums bit for bit, in 8-lane registers. The footprint's corners are rounded
+    /// with `roundps` (⌈px − r⌉ and ⌊px + r⌋ exactly as `ceil_i64`/`floor_i64` give them); the
+    /// weights of both axes are one 8-lane Horner evaluation; each row multiplies the 4 x
+    /// weights by its y weight (as `w * wy`), spreads each product over a pixel's 4 channels
+    /// and adds `v` times it to the row's 4 pixels (two 8-lane operations). Returns false,
+    /// having changed nothing, for any other footprint (cut by the block's edges, 5 wide for a
+    /// sample on a pixel edge, wider filters, positions beyond ±2²⁴).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn put_gaussian4x4_avx2(&mut self, film_pos: Vec2, v: Vec4) -> bool {
+        use std::arch::x86_64::*;
+        let RFilter::Gaussian { coeff, .. } = &self.filter else {
+            return false;
+        };
+        let r = self.filter.radius();
+        let b = self.border as f32;
+        let px = film_pos.x + (b - self.offset.0 as f32 - 0.5);
+        let py = film_pos.y + (b - self.offset.1 as f32 - 0.5);
+        if !(px.abs() < 16_777_216.0 && py.abs() < 16_777_216.0) {
+            return false;
+        }
+        // (⌈px − r⌉, ⌈py − r⌉, ⌊px + r⌋, ⌊py + r⌋), integers below 2²⁵ in magnitude
+        let e = _mm_setr_ps(px - r, py - r, px + r, py + r);
+        let up = _mm_round_ps::<{ _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC }>(e);
+        let down = _mm_round_ps::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(e);
+        let corners = _mm_blend_ps::<0b1100>(up, down);
+        let mut c = [0i32; 4];
+        _mm_storeu_si128(c.as_mut_ptr() as *mut __m128i, _mm_cvttps_epi32(corners));
+        let [x0, y0, x1, y1] = c;
+        let (ew, eh) = self.stored_size();
+        if x0 < 0
+            || y0 < 0
+            || x1 - x0 != 3
+            || y1 - y0 != 3
+            || x1 as usize >= ew
+            || y1 as usize >= eh
+        {
+            return false;
+        }
+        let first = y0 as usize * ew + x0 as usize;
+        let square = &mut self.data[first..first + 3 * ew + 4];
+        // d = (first + i) − p, lanes 0–3 for x, 4–7 for y
+        let (fx, fy) = (x0 as f32, y0 as f32);
+        let origin = _mm256_setr_ps(fx, fx, fx, fx, fy, fy, fy, fy);
+        let p = _mm256_setr_ps(px, px, px, px, py, py, py, py);
+        let i = _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 0.0, 1.0, 2.0, 3.0);
+        let d = _mm256_sub_ps(_mm256_add_ps(origin, i), p);
+        let d2 = _mm256_mul_ps(d, d);
+        let mut acc = _mm256_setzero_ps();
+        for &c in coeff.iter().rev() {
+            acc = _mm256_add_ps(_mm256_mul_ps(acc, d2), _mm256_set1_ps(c));
+        }
+        // f32::max(a, 0) for the finite values a polynomial of |d| ≤ 3 gives
+        let w = _mm256_max_ps(acc, _mm256_setzero_ps());
+        let wx = _mm256_permute2f128_ps::<0x00>(w, w);
+        let mut wy = [0f32; 8];
+        _mm256_storeu_ps(wy.as_mut_ptr(), w);
+        let vv = {
+            let v: __m128 = v.into();
+            _mm256_set_m128(v, v)
+        };
+        let lo = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
+        let hi = _mm256_setr_epi32(2, 2, 2, 2, 3, 3, 3, 3);
+        let base = square.as_mut_ptr() as *mut f32;
+        for (k, &wyk) in wy[4..].iter().enumerate() {
+            if wyk == 0.0 {
+                continue;
+            }
+            let pw = _mm256_mul_ps(wx, _mm256_set1_ps(wyk));
+            // SAFETY: row k's 4 pixels (16 floats) lie inside `square`
+            let row = base.add(4 * k * ew);
+            let a = _mm256_add_ps(
+                _mm256_loadu_ps(row),
+                _mm256_mul_ps(vv, _mm256_permutevar8x32_ps(pw, lo)),
+            );
+            let b = _mm256_add_ps(
+                _mm256_loadu_ps(row.add(8)),
+                _mm256_mul_ps(vv, _mm256_permutevar8x32_ps(pw, hi)),
+            );
+            _mm256_storeu_ps(row, a);
+            _mm256_storeu_ps(row.add(8), b);
+        }
+        true
     }
 
     /// [`Self::put_taps`] for up to 8 × 8 pixels: the 8 weights of each axis are evaluated
@@ -681,6 +786,67 @@ mod tests {
                     };
                     assert_eq!(*d, want, "filter {f:?}, sample {p}, stored pixel {k}");
                 }
+            }
+        }
+    }
+
+    /// The AVX2 4 × 4 Gaussian splat leaves every stored pixel with the same bits as the
+    /// general path, for accumulated samples of any weight, and takes the footprints it should
+    /// (exactly 4 × 4 inside the block) and no others.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_gaussian_splat_equals_the_general_path_bit_for_bit() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("no AVX2 here: nothing to compare");
+            return;
+        }
+        let mut rng = Pcg32::new(5, 11);
+        for sigma in [0.5, 0.45, 0.3, 0.8] {
+            let f = RFilter::gaussian(sigma);
+            let film = Film::new(40, 30, f);
+            let mut fast = film.new_block(8, 6, 16, 12);
+            let mut general = fast.clone();
+            let (ew, eh) = fast.stored_size();
+            let mut taken = 0;
+            for k in 0..4000 {
+                // positions over the whole film (most outside or across the block's edges
+                // for the wider filters), some exactly on pixel edges
+                let mut p = Vec2::new(rng.next_f32() * 40.0, rng.next_f32() * 30.0);
+                if k % 7 == 0 {
+                    p.x = p.x.floor();
+                }
+                let v = rgb1(Rgb::new(rng.next_f32() * 4.0, rng.next_f32(), 0.5))
+                    * (0.25 + rng.next_f32());
+                // SAFETY: AVX2 is present.
+                if unsafe { fast.put_gaussian4x4_avx2(p, v) } {
+                    taken += 1;
+                    let r = f.radius();
+                    let b = fast.border as f32;
+                    let px = p.x + (b - 8.0 - 0.5);
+                    let py = p.y + (b - 6.0 - 0.5);
+                    let (x0, x1) = ((px - r).ceil(), (px + r).floor());
+                    let (y0, y1) = ((py - r).ceil(), (py + r).floor());
+                    assert!(x1 - x0 == 3.0 && y1 - y0 == 3.0 && x0 >= 0.0 && y0 >= 0.0);
+                    assert!((x1 as usize) < ew && (y1 as usize) < eh);
+                } else {
+                    fast.put_any(p, v);
+                }
+                general.put_any(p, v);
+            }
+            for (a, b) in fast.data.iter().zip(&general.data) {
+                assert_eq!(
+                    a.to_array().map(f32::to_bits),
+                    b.to_array().map(f32::to_bits)
+                );
+            }
+            if sigma == 0.5 {
+                assert!(
+                    taken > 500,
+                    "σ = 0.5: only {taken} samples took the 4 × 4 path"
+                );
+            }
+            if sigma == 0.8 {
+                assert_eq!(taken, 0, "σ = 0.8 has no 4 × 4 footprints");
             }
         }
     }

@@ -45,32 +45,34 @@ fn guided_cdf_search_is_exact() {
                 (acc / total) as f32
             });
         }
-        let mut g = vec![];
-        super::guide::build(&cdf, &mut g);
-        assert_eq!(g.len(), super::guide::buckets(w.len()) + 1);
-        let mut us: Vec<f32> = (0..2000).map(|_| rnd()).collect();
-        // the CDF's own values, the bucket edges and their neighbours
-        for &c in &cdf {
-            us.extend([
-                c,
-                f32::from_bits(c.to_bits().saturating_sub(1)),
-                f32::from_bits(c.to_bits() + 1),
-            ]);
-        }
-        let m = g.len() - 1;
-        for k in 0..=m {
-            let t = k as f32 / m as f32;
-            us.extend([
-                t,
-                f32::from_bits(t.to_bits().saturating_sub(1)),
-                f32::from_bits(t.to_bits() + 1),
-            ]);
-        }
-        us.extend([0.0, 1.0 - f32::EPSILON / 2.0]);
-        for u in us.into_iter().filter(|u| (0.0..1.0).contains(u)) {
-            let a = super::sample_cdf(&cdf, u);
-            let b = super::guide::sample(&cdf, &g, u);
-            assert_eq!(a, b, "u = {u}, cdf {cdf:?}");
+        for per in [1, super::guide::ROW_BINS, super::guide::COL_BINS, 100] {
+            let mut g = vec![];
+            super::guide::build(&cdf, per, &mut g);
+            assert_eq!(g.len(), super::guide::buckets(w.len(), per) + 1);
+            let mut us: Vec<f32> = (0..2000).map(|_| rnd()).collect();
+            // the CDF's own values, the bucket edges and their neighbours
+            for &c in &cdf {
+                us.extend([
+                    c,
+                    f32::from_bits(c.to_bits().saturating_sub(1)),
+                    f32::from_bits(c.to_bits() + 1),
+                ]);
+            }
+            let m = g.len() - 1;
+            for k in 0..=m {
+                let t = k as f32 / m as f32;
+                us.extend([
+                    t,
+                    f32::from_bits(t.to_bits().saturating_sub(1)),
+                    f32::from_bits(t.to_bits() + 1),
+                ]);
+            }
+            us.extend([0.0, 1.0 - f32::EPSILON / 2.0]);
+            for u in us.into_iter().filter(|u| (0.0..1.0).contains(u)) {
+                let a = super::sample_cdf(&cdf, u);
+                let b = super::guide::sample(&cdf, &g, u);
+                assert_eq!(a, b, "u = {u}, {per} bins per bucket, cdf {cdf:?}");
+            }
         }
     }
 }

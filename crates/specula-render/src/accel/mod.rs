@@ -1206,6 +1206,22 @@ impl Bvh {
     }
 }
 
+impl Bvh {
+    /// The closest-hit walk with the scalar tests (out of line: see `closest_sse2`).
+    #[inline(never)]
+    fn closest_scalar(&self, ray: &Ray) -> Option<Hit> {
+        // SAFETY: the scalar tests need nothing.
+        unsafe { self.closest::<Scalar, Scalar>(ray) }
+    }
+
+    /// The any-hit walk with the scalar tests (out of line).
+    #[inline(never)]
+    fn any_hit_scalar(&self, ray: &Ray) -> bool {
+        // SAFETY: the scalar tests need nothing.
+        unsafe { self.any_hit::<Scalar, Scalar>(ray) }
+    }
+}
+
 /// Whether the ray can be traced: finite origin and direction, a non-zero direction and a
 /// positive extent (the component tests as one vector comparison each).
 #[inline(always)]
@@ -1227,8 +1243,7 @@ impl Intersector for Bvh {
             Isa::Avx2 => unsafe { self.closest_avx2(ray) },
             #[cfg(target_arch = "x86_64")]
             Isa::Sse2 => self.closest_sse2(ray),
-            // SAFETY: the scalar tests need nothing.
-            _ => unsafe { self.closest::<Scalar, Scalar>(ray) },
+            _ => self.closest_scalar(ray),
         }
     }
 
@@ -1242,8 +1257,7 @@ impl Intersector for Bvh {
             Isa::Avx2 => unsafe { self.occluded_avx2(ray) },
             #[cfg(target_arch = "x86_64")]
             Isa::Sse2 => self.occluded_sse2(ray),
-            // SAFETY: the scalar tests need nothing.
-            _ => unsafe { self.any_hit::<Scalar, Scalar>(ray) },
+            _ => self.any_hit_scalar(ray),
         }
     }
 

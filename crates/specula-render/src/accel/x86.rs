@@ -280,11 +280,16 @@ fn exact_edges<const N: usize>(lanes: i32, e: &mut [[f32; N]; 9]) {
     }
 }
 
+// The walks are out of line (here and in `closest_scalar`/`any_hit_scalar`), so that the
+// dispatching `Intersector` methods stay small: inlined, a walk's stack frame and register
+// saves were paid on every ray whichever walk ran.
 impl Bvh {
+    #[inline(never)]
     pub(super) fn closest_sse2(&self, ray: &Ray) -> Option<Hit> {
         // SAFETY: SSE2 is part of x86-64.
         unsafe { self.closest::<Sse2, Sse2>(ray) }
     }
+    #[inline(never)]
     pub(super) fn occluded_sse2(&self, ray: &Ray) -> bool {
         // SAFETY: SSE2 is part of x86-64.
         unsafe { self.any_hit::<Sse2, Sse2>(ray) }

@@ -295,6 +295,17 @@ impl ImageBlock {
             return;
         }
         let v = rgb1(value) * weight;
+        if let RFilter::Box = self.filter {
+            // the one pixel holding the sample (here, not out of line: most scenes' filter)
+            let x = floor_i64(film_pos.x) - self.offset.0 as i64;
+            let y = floor_i64(film_pos.y) - self.offset.1 as i64;
+            if x >= 0 && y >= 0 && (x as usize) < self.size.0 && (y as usize) < self.size.1 {
+                // (weight 1: v · 1 is v)
+                let ew = self.stored_size().0;
+                self.data[y as usize * ew + x as usize] += v;
+            }
+            return;
+        }
         #[cfg(target_arch = "x86_64")]
         if let RFilter::Gaussian { .. } = self.filter {
             if std::arch::is_x86_feature_detected!("avx2")
@@ -307,19 +318,11 @@ impl ImageBlock {
         self.put_any(film_pos, v);
     }
 
-    /// [`ImageBlock::put_weighted`] of the value-and-weight vector `v`: every filter, every
-    /// footprint.
+    /// [`ImageBlock::put_weighted`] of the value-and-weight vector `v` for the filters with
+    /// a footprint of several pixels (every footprint).
     #[inline(never)]
     fn put_any(&mut self, film_pos: Vec2, v: Vec4) {
         let (ew, eh) = self.stored_size();
-        if let RFilter::Box = self.filter {
-            let x = floor_i64(film_pos.x) - self.offset.0 as i64;
-            let y = floor_i64(film_pos.y) - self.offset.1 as i64;
-            if x >= 0 && y >= 0 && (x as usize) < self.size.0 && (y as usize) < self.size.1 {
-                self.add(y as usize * ew + x as usize, v, 1.0);
-            }
-            return;
-        }
         let r = self.filter.radius();
         // Position relative to the stored area's pixel centres.
         let b = self.border as f32;

@@ -1267,15 +1267,11 @@ impl Intersector for Bvh {
             && (2..=8).contains(&rays.len())
             && hits.len() >= rays.len()
             && !self.nodes.is_empty()
-            && rays.iter().all(valid_ray)
+            // SAFETY: AVX2 and FMA are present (`isa`); 2 to 8 rays, as many hits, a tree.
+            // It checks the rays' validity and octant itself, and writes nothing without.
+            && unsafe { self.closest_packet_avx2(rays, hits) }
         {
-            let brs: [BoxRay; 8] =
-                std::array::from_fn(|i| BoxRay::new(&rays[i.min(rays.len() - 1)]));
-            if brs.iter().all(|b| b.near_at == brs[0].near_at) {
-                // SAFETY: AVX2 and FMA are present (`isa`); 2 to 8 valid rays, one octant.
-                unsafe { self.closest_packet_avx2(rays, &brs, hits) };
-                return;
-            }
+            return;
         }
         intersect_each(self, rays, hits);
     }

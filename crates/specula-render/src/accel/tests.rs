@@ -566,6 +566,81 @@ fn packets_match_single_rays() {
     assert!(hits > 8000, "{hits} hits");
 }
 
+/// The AVX2 packet walk checks its rays itself (the `valid_ray` test and the octant of
+/// `BoxRay::new`, computed for 8 lanes at once): it declines, writing nothing, a packet with
+/// an invalid ray (non-finite origin or direction, a zero direction, t_max ≤ 0) or with rays
+/// of two octants, and takes packets of one octant including axis-aligned directions (±0
+/// components, which count as positive), giving each ray the single-ray hit.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn avx2_packet_checks_validity_and_octant_as_the_single_ray_path() {
+    if !Isa::Avx2.supported() {
+        return;
+    }
+    let geoms = scene();
+    let bvh = Bvh::build(&geoms);
+    let o = Vec3::new(0.3, 0.4, -3.5);
+    // x and y ≥ 0 (+0 and −0 both count as positive), z > 0
+    let base = [
+        Vec3::new(0.0, 0.2, 1.0),
+        Vec3::new(-0.0, 0.1, 1.0),
+        Vec3::new(0.1, -0.0, 1.0),
+        Vec3::new(0.2, 0.1, 1.0),
+        Vec3::new(0.0, 0.05, 0.5),
+        Vec3::new(0.05, 0.25, 1.0),
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(0.3, 0.15, 1.0),
+    ];
+    let rays: Vec<Ray> = base
+        .iter()
+        .map(|&d| Ray {
+            o,
+            d: d.normalize(),
+            t_max: f32::INFINITY,
+        })
+        .collect();
+    let run = |rays: &[Ray]| {
+        let mut hits = [None; 8];
+        // SAFETY: AVX2 and FMA are present; 2 to 8 rays, 8 hits, a non-empty tree.
+        let taken = unsafe { bvh.closest_packet_avx2(rays, &mut hits) };
+        (taken, hits)
+    };
+    let key = |h: Option<Hit>| h.map(|h| (h.t, h.shape, h.prim, h.u, h.v));
+    for n in 2..=8 {
+        let (taken, hits) = run(&rays[..n]);
+        assert!(taken, "{n} rays of one octant");
+        for (k, ray) in rays[..n].iter().enumerate() {
+            assert_eq!(key(hits[k]), key(bvh.intersect(ray)), "{n} rays, ray {k}");
+        }
+    }
+    assert!(rays.iter().any(|r| bvh.intersect(r).is_some()));
+    type Spoil = (usize, fn(&mut Ray));
+    let spoiled: [Spoil; 8] = [
+        (0, |r| r.d = Vec3::ZERO),
+        (7, |r| r.t_max = 0.0),
+        (3, |r| r.t_max = -1.0),
+        (5, |r| r.o.x = f32::INFINITY),
+        (1, |r| r.o.y = f32::NAN),
+        (2, |r| r.d.z = f32::NAN),
+        (6, |r| r.d.x = f32::NEG_INFINITY),
+        // another octant (−x): a valid ray the packet cannot take
+        (4, |r| r.d.x = -0.5),
+    ];
+    for (i, (lane, spoil)) in spoiled.iter().enumerate() {
+        let mut bad = rays.clone();
+        spoil(&mut bad[*lane]);
+        let (taken, hits) = run(&bad);
+        assert!(!taken, "case {i}");
+        assert!(hits.iter().all(|h| h.is_none()), "case {i} wrote hits");
+        // the dispatching query falls back to single rays
+        let mut got = [None; 8];
+        bvh.intersect_packet(&bad, &mut got);
+        for (k, ray) in bad.iter().enumerate() {
+            assert_eq!(key(got[k]), key(bvh.intersect(ray)), "case {i}, ray {k}");
+        }
+    }
+}
+
 #[test]
 fn watertight_closed_mesh_and_shared_vertices() {
     let ico = load_ply(&asset("icosphere.ply")).unwrap();

@@ -307,49 +307,114 @@ impl Bvh {
         self.any_hit::<Avx2, Avx2>(ray)
     }
 
-    /// Closest hits of up to 8 rays that share a direction octant (`BoxRay::near_at`
-    /// equal), walked as one packet: each node's 8 boxes are tested against all rays at
-    /// once (one ray per lane), the stack holds a child with the rays that entered it and
-    /// where, and a leaf is tested by each of its rays with the single-ray test. The
-    /// per-ray arithmetic is that of `closest_avx2`, so the hits are the same.
+    /// Closest hits of 2 to 8 rays that share a direction octant, walked as one packet:
+    /// each node's 8 boxes are tested against all rays at once (one ray per lane), the stack
+    /// holds a child with the rays that entered it and where, and a leaf is tested by each of
+    /// its rays with the single-ray test. The per-ray arithmetic is that of `closest_avx2`
+    /// (the slab factors are `BoxRay::new`'s, computed for the 8 lanes at once), so the hits
+    /// are the same. Returns false, having written nothing, when a ray is not valid
+    /// (`valid_ray`) or the rays do not share an octant.
     ///
     /// # Safety
-    /// The CPU must support AVX2 and FMA; `rays` holds 1 to 8 valid rays, `hits` as many.
+    /// The CPU must support AVX2 and FMA; `rays` holds 2 to 8 rays, `hits` at least as many
+    /// hits; the tree is not empty.
     #[target_feature(enable = "avx2,fma")]
     pub(super) unsafe fn closest_packet_avx2(
         &self,
         rays: &[Ray],
-        brs: &[BoxRay; 8],
         hits: &mut [Option<Hit>],
-    ) {
+    ) -> bool {
         let n = rays.len();
         let all = (1u32 << n) - 1;
-        // per-lane factors of the slab test (lanes ≥ n copy lane 0 and stay inactive)
-        let mut f = [[0f32; 8]; 12];
-        for lane in 0..8 {
-            let r = &brs[lane.min(n - 1)];
-            for a in 0..3 {
-                f[a][lane] = r.inv[a];
-                f[3 + a][lane] = r.o[a] * r.inv[a];
-                f[6 + a][lane] = r.inv[a] * EXIT_SCALE;
-                f[9 + a][lane] = r.o[a] * r.inv[a] * EXIT_SCALE;
-            }
-        }
-        macro_rules! ld {
-            ($k:expr) => {
-                _mm256_loadu_ps(f[$k].as_ptr())
+        // lanes ≥ n copy lane n − 1 (and stay inactive)
+        let r: [&Ray; 8] = std::array::from_fn(|i| &rays[i.min(n - 1)]);
+        macro_rules! lanes {
+            ($($f:ident).+) => {
+                _mm256_setr_ps(
+                    r[0].$($f).+, r[1].$($f).+, r[2].$($f).+, r[3].$($f).+,
+                    r[4].$($f).+, r[5].$($f).+, r[6].$($f).+, r[7].$($f).+,
+                )
             };
         }
-        let (inx, iny, inz) = (ld!(0), ld!(1), ld!(2));
-        let (onx, ony, onz) = (ld!(3), ld!(4), ld!(5));
-        let (ifx, ify, ifz) = (ld!(6), ld!(7), ld!(8));
-        let (ofx, ofy, ofz) = (ld!(9), ld!(10), ld!(11));
-        let (near, far) = (brs[0].near_at, brs[0].far_at);
-        let trs: [TriRay; 8] = std::array::from_fn(|i| TriRay::new(&rays[i.min(n - 1)]));
-        let mut t_max = [0f32; 8];
-        for (lane, t) in t_max.iter_mut().enumerate() {
-            *t = rays[lane.min(n - 1)].t_max;
+        let (ox, oy, oz) = (lanes!(o.x), lanes!(o.y), lanes!(o.z));
+        let (dx, dy, dz) = (lanes!(d.x), lanes!(d.y), lanes!(d.z));
+        let tm = lanes!(t_max);
+        // `valid_ray` for the 8 lanes: finite origin and direction (|x| < ∞ is false for ±∞
+        // and NaN), a nonzero direction, t_max > 0
+        let zero = _mm256_setzero_ps();
+        let inf = _mm256_set1_ps(f32::INFINITY);
+        let sign = _mm256_set1_ps(-0.0);
+        macro_rules! finite {
+            ($v:expr) => {
+                _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_andnot_ps(sign, $v), inf)
+            };
         }
+        let ok = _mm256_and_ps(
+            _mm256_and_ps(
+                _mm256_and_ps(finite!(ox), finite!(oy)),
+                _mm256_and_ps(finite!(oz), finite!(dx)),
+            ),
+            _mm256_and_ps(
+                _mm256_and_ps(finite!(dy), finite!(dz)),
+                _mm256_cmp_ps::<_CMP_GT_OQ>(tm, zero),
+            ),
+        );
+        let nonzero = _mm256_or_ps(
+            _mm256_or_ps(
+                _mm256_cmp_ps::<_CMP_NEQ_UQ>(dx, zero),
+                _mm256_cmp_ps::<_CMP_NEQ_UQ>(dy, zero),
+            ),
+            _mm256_cmp_ps::<_CMP_NEQ_UQ>(dz, zero),
+        );
+        if _mm256_movemask_ps(_mm256_and_ps(ok, nonzero)) != 0xff {
+            return false;
+        }
+        // `BoxRay::new` for the 8 lanes: +0 for zero components (including −0), which get
+        // +MAX_INV_DIR; 1/d clamped to ±MAX_INV_DIR
+        let max = _mm256_set1_ps(MAX_INV_DIR);
+        let min = _mm256_set1_ps(-MAX_INV_DIR);
+        let one = _mm256_set1_ps(1.0);
+        macro_rules! inv {
+            ($d:expr) => {{
+                let d = _mm256_add_ps($d, zero);
+                let q = _mm256_min_ps(_mm256_max_ps(_mm256_div_ps(one, d), min), max);
+                _mm256_blendv_ps(q, max, _mm256_cmp_ps::<_CMP_EQ_OQ>(d, zero))
+            }};
+        }
+        let (inx, iny, inz) = (inv!(dx), inv!(dy), inv!(dz));
+        // one octant: each axis's sign the same in every lane
+        macro_rules! neg {
+            ($v:expr) => {
+                _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>($v, zero))
+            };
+        }
+        let (nx, ny, nz) = (neg!(inx), neg!(iny), neg!(inz));
+        if ![nx, ny, nz].iter().all(|&m| m == 0 || m == 0xff) {
+            return false;
+        }
+        let bit = |m: i32| (m & 1) as usize;
+        let near = [bit(nx), 2 + bit(ny), 4 + bit(nz)].map(|p| p * WIDTH);
+        let far = [1 - bit(nx), 3 - bit(ny), 5 - bit(nz)].map(|p| p * WIDTH);
+        // the slab factors: o·inv, and both times EXIT_SCALE for the exit planes
+        let (onx, ony, onz) = (
+            _mm256_mul_ps(ox, inx),
+            _mm256_mul_ps(oy, iny),
+            _mm256_mul_ps(oz, inz),
+        );
+        let exit = _mm256_set1_ps(EXIT_SCALE);
+        let (ifx, ify, ifz) = (
+            _mm256_mul_ps(inx, exit),
+            _mm256_mul_ps(iny, exit),
+            _mm256_mul_ps(inz, exit),
+        );
+        let (ofx, ofy, ofz) = (
+            _mm256_mul_ps(onx, exit),
+            _mm256_mul_ps(ony, exit),
+            _mm256_mul_ps(onz, exit),
+        );
+        let trs: [TriRay; 8] = std::array::from_fn(|i| TriRay::new(r[i]));
+        let mut t_max = [0f32; 8];
+        _mm256_storeu_ps(t_max.as_mut_ptr(), tm);
         let mut best: [Best; 8] = [None; 8];
         let mut out = TriOut {
             t: [0.0; 2 * LANES],
@@ -450,5 +515,6 @@ impl Bvh {
         for (lane, hit) in hits.iter_mut().enumerate().take(n) {
             *hit = self.make_hit(best[lane], t_max[lane]);
         }
+        true
     }
 }

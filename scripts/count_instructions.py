@@ -4,6 +4,8 @@
 
     python3 scripts/count_instructions.py                 # cbox at 64x64
     python3 scripts/count_instructions.py --scene veach_mis --size 64x48 --no-mitsuba
+    # an A/B of two Specula binaries (same images expected), no Mitsuba:
+    python3 scripts/count_instructions.py --exe OLD --exe NEW --scene cbox,meshes --no-mitsuba
 
 Each renderer runs under `valgrind --tool=callgrind` at two sample counts (--low, --high) on one
 thread; the difference divided by the extra samples is the per-sample cost, free of start-up,
@@ -70,26 +72,39 @@ def measure(label, cmd_for, is_traversal, is_rest, a, pixels):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--scene", default="cbox")
+    ap.add_argument("--scene", default="cbox", help="one scene or a comma-separated list")
     ap.add_argument("--size", default="64x64")
     ap.add_argument("--low", type=int, default=4)
     ap.add_argument("--high", type=int, default=36)
+    ap.add_argument("--sampler", help="Specula's sampler (default: the scene's own)")
+    ap.add_argument("--exe", action="append",
+                    help="a Specula binary (repeat to compare; default $SPECULA_EXE or "
+                         "target/release/specula)")
     ap.add_argument("--no-mitsuba", action="store_true")
     a = ap.parse_args()
     w, h = (int(v) for v in a.size.split("x"))
-    scene = shared / "scenes" / f"{a.scene}.xml"
-    exe = os.environ.get("SPECULA_EXE", str(root / "target" / "release" / "specula"))
-    print(f"Instructions per sample, {a.scene} at {w}x{h} (callgrind, {a.high} - {a.low} spp, "
-          "one thread)\n")
-    print("| renderer | total | traversal | rest |")
-    print("|---|---|---|---|")
-    with tempfile.TemporaryDirectory() as d:
-        img = os.path.join(d, "out.exr")
-        measure("Specula", lambda spp: [exe, "render", str(scene), "--spp", str(spp), "--size",
-                                        a.size, "--threads", "1", "--quiet", "-o", img],
-                lambda name: "specula_render::accel" in name, None, a, w * h)
-    if a.no_mitsuba:
-        return
+    exes = a.exe or [os.environ.get("SPECULA_EXE", str(root / "target" / "release" / "specula"))]
+    for name in a.scene.split(","):
+        scene = shared / "scenes" / f"{name}.xml"
+        print(f"Instructions per sample, {name} at {w}x{h} (callgrind, {a.high} - {a.low} spp, "
+              "one thread)\n")
+        print("| renderer | total | traversal | rest |")
+        print("|---|---|---|---|")
+        with tempfile.TemporaryDirectory() as d:
+            img = os.path.join(d, "out.exr")
+            extra = ["--sampler", a.sampler] if a.sampler else []
+            for exe in exes:
+                label = "Specula" if len(exes) == 1 else f"Specula `{exe}`"
+                measure(label,
+                        lambda spp: [exe, "render", str(scene), "--spp", str(spp), "--size",
+                                     a.size, "--threads", "1", "--quiet", "-o", img] + extra,
+                        lambda fn: "specula_render::accel" in fn, None, a, w * h)
+        if not a.no_mitsuba:
+            mitsuba(scene, w, h, a)
+        print()
+
+
+def mitsuba(scene, w, h, a):
     # the interpreter itself, not a shim script (valgrind would stop at its exec)
     py = os.path.realpath(sys.executable)
     with tempfile.NamedTemporaryFile("w", suffix=".py", delete=False) as f:

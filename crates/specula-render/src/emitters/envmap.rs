@@ -50,6 +50,14 @@ pub struct Envmap {
     pub(super) col_guide: Vec<u32>,
 }
 
+/// A lookup's bilinear cell (the index of its upper-left texel) and the weights of its
+/// second column and row (see [`Envmap::lookup`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lookup {
+    cell: usize,
+    w1: Vec2,
+}
+
 impl std::fmt::Debug for Envmap {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Envmap")
@@ -276,7 +284,7 @@ impl Envmap {
     pub(super) fn direction_to_uv(d: Vec3) -> Vec2 {
         Vec2::new(
             specula_bsdf::math::atan2(d.x, -d.z) * (0.5 / PI),
-            d.y.clamp(-1.0, 1.0).acos() * (1.0 / PI),
+            specula_bsdf::math::acos(d.y.clamp(-1.0, 1.0)) * (1.0 / PI),
         )
     }
 
@@ -412,6 +420,27 @@ impl Envmap {
         let _ = d_world;
     }
 
+    /// [`Envmap::lookup`], asking the cache for the texels it reads (the exact cell, where
+    /// [`Envmap::prefetch`] computes a cheaper one that may be a texel off): for a caller
+    /// that keeps the lookup and finishes it with [`Envmap::eval_pdf_at`] if the ray escapes.
+    #[inline]
+    pub fn prefetch_lookup(&self, d_world: Vec3) -> Option<Lookup> {
+        let l = self.lookup(d_world)?;
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the cell's four texels i, i + 1, i + w + 1 and i + w + 2 lie in `data`
+        // (see `bilinear_cell`), and prefetching never faults
+        unsafe {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let p = self.data.as_ptr().add(l.cell) as *const i8;
+            _mm_prefetch::<_MM_HINT_T0>(p);
+            _mm_prefetch::<_MM_HINT_T0>(p.add(16));
+            let q = self.data.as_ptr().add(l.cell + self.width + 1) as *const i8;
+            _mm_prefetch::<_MM_HINT_T0>(q);
+            _mm_prefetch::<_MM_HINT_T0>(q.add(16));
+        }
+        Some(l)
+    }
+
     /// Whether [`Envmap::prefetch`] does anything: maps of 256 KiB of texels or more (16 Ki
     /// texels of 16 bytes); smaller ones stay in the core's cache.
     #[inline]
@@ -454,22 +483,45 @@ impl Envmap {
 
     /// Radiance arriving from world direction `d`.
     pub fn eval(&self, d_world: Vec3) -> Rgb {
-        let d = self.local(d_world);
-        if d == Vec3::ZERO {
-            return Rgb::ZERO;
+        match self.lookup(d_world) {
+            Some(l) => self.eval_at(l),
+            None => Rgb::ZERO,
         }
-        self.eval_uv(Self::direction_to_uv(d))
     }
 
     /// [`Envmap::eval`] and [`Envmap::pdf`] together (one lat-long conversion, and the pdf
     /// from the texels the radiance reads).
     pub fn eval_pdf(&self, d_world: Vec3) -> (Rgb, f32) {
+        match self.lookup(d_world) {
+            Some(l) => self.eval_pdf_at(l),
+            None => (Rgb::ZERO, 0.0),
+        }
+    }
+
+    /// Where the lookups from world direction `d_world` read: its bilinear cell and weights
+    /// (None for a zero direction). [`Envmap::eval_at`] and [`Envmap::eval_pdf_at`] finish
+    /// them, so a caller that finds the cell before it knows whether the ray escapes (to
+    /// prefetch its texels, see [`Envmap::prefetch_lookup`]) does not compute it twice.
+    #[inline]
+    pub fn lookup(&self, d_world: Vec3) -> Option<Lookup> {
         let d = self.local(d_world);
         if d == Vec3::ZERO {
-            return (Rgb::ZERO, 0.0);
+            return None;
         }
-        let (i, w1) = self.bilinear_cell(Self::direction_to_uv(d));
-        (self.interpolate(i, w1), self.cell_pdf_at(i))
+        let (cell, w1) = self.bilinear_cell(Self::direction_to_uv(d));
+        Some(Lookup { cell, w1 })
+    }
+
+    /// [`Envmap::eval`] of a [`Envmap::lookup`].
+    #[inline]
+    pub fn eval_at(&self, l: Lookup) -> Rgb {
+        self.interpolate(l.cell, l.w1)
+    }
+
+    /// [`Envmap::eval_pdf`] of a [`Envmap::lookup`].
+    #[inline]
+    pub fn eval_pdf_at(&self, l: Lookup) -> (Rgb, f32) {
+        (self.interpolate(l.cell, l.w1), self.cell_pdf_at(l.cell))
     }
 
     /// Solid-angle pdf of [`Envmap::sample`]: that of the cell of the bilinear lookup.
@@ -508,7 +560,10 @@ impl Envmap {
         let wi = (self.to_world * d_local).normalize();
         // the radiance at the sampled point, from its lat-long coordinates directly (what
         // `direction_to_uv(d_local)` gives up to rounding, without its atan2)
-        let uv = Vec2::new(x, cos_t.clamp(-1.0, 1.0).acos() * (1.0 / PI));
+        let uv = Vec2::new(
+            x,
+            specula_bsdf::math::acos(cos_t.clamp(-1.0, 1.0)) * (1.0 / PI),
+        );
         Some(DirectionSample {
             wi,
             dist: f32::INFINITY,

@@ -35,9 +35,9 @@ mod spot;
 #[cfg(test)]
 mod tests;
 
-pub use envmap::Envmap;
 #[cfg(test)]
 use envmap::{guide, sample_cdf};
+pub use envmap::{Envmap, Lookup as EnvmapLookup};
 pub use projector::ProjectorLight;
 pub use spot::SpotLight;
 

@@ -1,6 +1,7 @@
 //! Mitsuba's `path` integrator (see the module documentation of [`crate::integrator`]).
 
 use super::*;
+use crate::emitters::{Emitter, Envmap, EnvmapLookup};
 
 impl Scene {
     /// Mitsuba's `path` integrator. `wl`: the path's wavelengths in spectral mode (the result
@@ -34,15 +35,23 @@ impl Scene {
         // the camera ray (traced by the caller); each bounce traces the next at its end
         counters.rays += 1;
         let mut next = hit;
+        // the environment map's lookup along `ray` when `prefetch_infinite` made it (the
+        // camera ray, traced by the caller, has none)
+        let mut lookup = None;
         loop {
             let wl = wl_path.as_ref();
             let hit = next;
             let show_emitters = depth > 0 || !settings.hide_emitters;
             let Some(hit) = hit else {
-                // escaped: infinitely distant lights
+                // escaped: infinitely distant lights (the one environment map's lookup found
+                // before the ray was traced, when there is one, finished here)
                 if show_emitters {
                     let bsdf_pdf = (!prev_bsdf_delta).then_some(prev_bsdf_pdf);
-                    result += throughput * self.infinite_radiance(ray.d, bsdf_pdf, 1.0, wl);
+                    result += throughput
+                        * match (lookup, wl) {
+                            (Some((e, l)), None) => self.envmap_radiance_at(e, l, bsdf_pdf),
+                            _ => self.infinite_radiance(ray.d, bsdf_pdf, 1.0, wl),
+                        };
                 }
                 break;
             };
@@ -170,28 +179,61 @@ impl Scene {
                 throughput /= q;
             }
             counters.rays += 1;
-            self.prefetch_infinite(ray.d);
+            lookup = self.prefetch_infinite(ray.d);
             next = self.intersect(&ray);
         }
         result
     }
 
     /// Asks the cache for what evaluating the environment maps along `d` will read, should
-    /// the ray about to be traced escape (see [`crate::emitters::Envmap::prefetch`]).
+    /// the ray about to be traced escape (see [`crate::emitters::Envmap::prefetch`]). Where
+    /// that map is the scene's one infinite light, its exact lookup is made now and returned
+    /// (with the map), for [`Scene::envmap_radiance_at`] to finish if the ray escapes.
     #[inline(always)]
-    fn prefetch_infinite(&self, d: Vec3) {
+    pub(super) fn prefetch_infinite(&self, d: Vec3) -> Option<(&Envmap, EnvmapLookup)> {
         if self.prefetched_maps.is_empty() {
-            return;
+            return None;
         }
-        self.prefetch_infinite_maps(d);
+        self.prefetch_infinite_maps(d)
     }
 
     #[inline(never)]
-    fn prefetch_infinite_maps(&self, d: Vec3) {
+    fn prefetch_infinite_maps(&self, d: Vec3) -> Option<(&Envmap, EnvmapLookup)> {
+        if let ([li], [lj]) = (&self.prefetched_maps[..], &self.infinite_lights[..]) {
+            if let (Light::Other(Emitter::Envmap(e)), true) = (&self.lights[*li as usize], li == lj)
+            {
+                return e.prefetch_lookup(d).map(|l| (&**e, l));
+            }
+        }
         for &li in &self.prefetched_maps {
-            if let Light::Other(crate::emitters::Emitter::Envmap(e)) = &self.lights[li as usize] {
+            if let Light::Other(Emitter::Envmap(e)) = &self.lights[li as usize] {
                 e.prefetch(d);
             }
         }
+        None
+    }
+
+    /// [`Scene::infinite_radiance`] (RGB mode, `light_frac` 1) where the scene's one infinite
+    /// light is the environment map `e` and `l` its lookup along the ray: the same operations
+    /// as that function's single-light case, from the lookup on.
+    #[inline]
+    pub(super) fn envmap_radiance_at(
+        &self,
+        e: &Envmap,
+        l: EnvmapLookup,
+        bsdf_pdf: Option<f32>,
+    ) -> Rgb {
+        let (le, pdf) = match bsdf_pdf {
+            Some(_) => e.eval_pdf_at(l),
+            None => (e.eval_at(l), 0.0),
+        };
+        if le.is_black() {
+            return Rgb::ZERO;
+        }
+        let w = match bsdf_pdf {
+            None => 1.0,
+            Some(p) => mis(p, pdf * self.light_select_pdf() * 1.0),
+        };
+        Rgb::ZERO + le * w
     }
 }

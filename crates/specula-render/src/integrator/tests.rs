@@ -232,3 +232,53 @@ fn direct_strategies_agree_in_expectation() {
         assert!((v / both - 1.0).abs() < 0.02, "{name}: {v} vs {both}");
     }
 }
+
+/// Where the scene's one infinite light is an environment map large enough to prefetch, the
+/// path loop makes its lookup before tracing a bounce's ray and finishes it if the ray
+/// escapes: that gives what `infinite_radiance` gives from the direction, bit for bit, with
+/// and without a BSDF pdf for MIS; with a second infinite light nothing is kept (the general
+/// loop runs).
+#[test]
+fn kept_envmap_lookup_gives_infinite_radiance_bit_for_bit() {
+    let mut s = scene(r#"<integrator type="path"/>"#, "").unwrap();
+    let (w, h) = (256, 128);
+    // a map with structure in both directions, so that a wrong cell or weight shows
+    let data = (0..w * h * 3)
+        .map(|k| {
+            let (x, y, c) = ((k / 3) % w, (k / 3) / w, k % 3);
+            0.1 + ((x * 7 + y * 13 + c * 5) % 17) as f32
+                + if (x / 16 + y / 16) % 2 == 0 {
+                    30.0
+                } else {
+                    0.0
+                }
+        })
+        .collect();
+    let img = crate::image_io::Image {
+        width: w,
+        height: h,
+        channels: 3,
+        data,
+    };
+    let to_world = glam::Mat4::from_rotation_y(0.7) * glam::Mat4::from_rotation_x(-0.3);
+    let e = crate::emitters::Envmap::new(&img, false, 1.5, &to_world).unwrap();
+    s.add_light(crate::emitters::Emitter::Envmap(Box::new(e)));
+    assert_eq!(s.prefetched_maps, s.infinite_lights);
+    let mut rng = specula_bsdf::rng::Pcg32::new(7, 0);
+    for i in 0..4000 {
+        let d = specula_bsdf::warp::square_to_uniform_sphere(rng.next_vec2());
+        let d = if i % 5 == 0 { d * 3.0 } else { d }; // not normalised
+        let (e, l) = s.prefetch_infinite(d).expect("the lookup is kept");
+        for pdf in [None, Some(0.3), Some(7.0)] {
+            let want = s.infinite_radiance(d, pdf, 1.0, None);
+            let got = s.envmap_radiance_at(e, l, pdf);
+            assert_eq!(
+                got.0.map(f32::to_bits),
+                want.0.map(f32::to_bits),
+                "{d} {pdf:?}"
+            );
+        }
+    }
+    s.add_light(crate::emitters::Emitter::constant(Rgb::splat(0.5)));
+    assert!(s.prefetch_infinite(Vec3::Y).is_none());
+}

@@ -327,7 +327,12 @@ impl Bvh {
         let n = rays.len();
         let all = (1u32 << n) - 1;
         // lanes ≥ n copy lane n − 1 (and stay inactive)
-        let r: [&Ray; 8] = std::array::from_fn(|i| &rays[i.min(n - 1)]);
+        // (no `array::from_fn`: its closure would not inherit this function's target
+        // features, and was called once per lane)
+        let mut r = [&rays[0]; 8];
+        for (i, ray) in r.iter_mut().enumerate() {
+            *ray = &rays[i.min(n - 1)];
+        }
         macro_rules! lanes {
             ($($f:ident).+) => {
                 _mm256_setr_ps(
@@ -412,7 +417,16 @@ impl Bvh {
             _mm256_mul_ps(ony, exit),
             _mm256_mul_ps(onz, exit),
         );
-        let trs: [TriRay; 8] = std::array::from_fn(|i| TriRay::new(r[i]));
+        let trs = [
+            TriRay::new(r[0]),
+            TriRay::new(r[1]),
+            TriRay::new(r[2]),
+            TriRay::new(r[3]),
+            TriRay::new(r[4]),
+            TriRay::new(r[5]),
+            TriRay::new(r[6]),
+            TriRay::new(r[7]),
+        ];
         let mut t_max = [0f32; 8];
         _mm256_storeu_ps(t_max.as_mut_ptr(), tm);
         let mut best: [Best; 8] = [None; 8];

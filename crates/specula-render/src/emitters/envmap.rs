@@ -131,15 +131,17 @@ pub(super) mod guide {
 
     /// Picks the bin of `cdf` (`n + 1` entries, 0 … 1) holding `u`, skipping empty bins,
     /// through its guide `start`; returns it with `u` rescaled to [0, 1) within it.
+    /// `PREFETCH`: ask for the bucket's CDF lines first (for the column CDFs, which miss the
+    /// cache; the small row CDF stays in it).
     #[inline]
-    pub fn sample(cdf: &[f32], start: &[u32], u: f32) -> (usize, f32) {
+    pub fn sample<const PREFETCH: bool>(cdf: &[f32], start: &[u32], u: f32) -> (usize, f32) {
         let m = start.len() - 1;
         let k = bucket(u, m, to_f32(m));
         let (lo, hi) = (start[k] as usize, start[k + 1] as usize);
         // the entries the search reads (and the bin's two ends): ask for their lines at
         // once, so that the search waits for one access rather than one per line it probes
         #[cfg(target_arch = "x86_64")]
-        {
+        if PREFETCH {
             use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
             let first = cdf[lo..].as_ptr() as usize;
             let last = first + 4 * (hi - lo + 1);
@@ -539,9 +541,9 @@ impl Envmap {
             return None; // black (or non-finite) map
         }
         let w = self.width;
-        let (j, sv) = guide::sample(&self.row_cdf, &self.row_guide, u.y);
+        let (j, sv) = guide::sample::<false>(&self.row_cdf, &self.row_guide, u.y);
         let g = guide::buckets(w, guide::COL_BINS) + 1;
-        let (i, su) = guide::sample(
+        let (i, su) = guide::sample::<true>(
             &self.col_cdf[j * (w + 1)..(j + 1) * (w + 1)],
             &self.col_guide[j * g..(j + 1) * g],
             u.x,

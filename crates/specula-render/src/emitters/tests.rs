@@ -70,7 +70,8 @@ fn guided_cdf_search_is_exact() {
             us.extend([0.0, 1.0 - f32::EPSILON / 2.0]);
             for u in us.into_iter().filter(|u| (0.0..1.0).contains(u)) {
                 let a = super::sample_cdf(&cdf, u);
-                let b = super::guide::sample(&cdf, &g, u);
+                let b = super::guide::sample::<true>(&cdf, &g, u);
+                assert_eq!(b, super::guide::sample::<false>(&cdf, &g, u));
                 assert_eq!(a, b, "u = {u}, {per} bins per bucket, cdf {cdf:?}");
             }
         }

@@ -400,23 +400,8 @@ impl Envmap {
     #[inline]
     pub fn prefetch(&self, d_world: Vec3) {
         #[cfg(target_arch = "x86_64")]
-        {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            if !self.worth_prefetching() {
-                return;
-            }
-            let i = self.coarse_cell(d_world);
-            // SAFETY: the cell's four texels i, i + 1, i + w + 1 and i + w + 2 lie in `data`
-            // (py ≤ h − 2 and px ≤ w − 1, so i + w + 2 ≤ (h − 1)(w + 1) + w = len − 1), and
-            // prefetching never faults
-            unsafe {
-                let p = self.data.as_ptr().add(i) as *const i8;
-                _mm_prefetch::<_MM_HINT_T0>(p);
-                _mm_prefetch::<_MM_HINT_T0>(p.add(16));
-                let q = self.data.as_ptr().add(i + self.width + 1) as *const i8;
-                _mm_prefetch::<_MM_HINT_T0>(q);
-                _mm_prefetch::<_MM_HINT_T0>(q.add(16));
-            }
+        if self.worth_prefetching() {
+            self.prefetch_cell(self.coarse_cell(d_world));
         }
         #[cfg(not(target_arch = "x86_64"))]
         let _ = d_world;
@@ -429,18 +414,28 @@ impl Envmap {
     pub fn prefetch_lookup(&self, d_world: Vec3) -> Option<Lookup> {
         let l = self.lookup(d_world)?;
         #[cfg(target_arch = "x86_64")]
+        self.prefetch_cell(l.cell);
+        Some(l)
+    }
+
+    /// Asks the cache for the four texels of the cell whose upper-left texel is `i` (a cell
+    /// of `bilinear_cell` or `coarse_cell`: py ≤ h − 2 and px ≤ w − 1).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn prefetch_cell(&self, i: usize) {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        debug_assert!(i + self.width + 2 < self.data.len());
         // SAFETY: the cell's four texels i, i + 1, i + w + 1 and i + w + 2 lie in `data`
-        // (see `bilinear_cell`), and prefetching never faults
+        // (py ≤ h − 2 and px ≤ w − 1, so i + w + 2 ≤ (h − 1)(w + 1) + w = len − 1), and
+        // prefetching never faults
         unsafe {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-            let p = self.data.as_ptr().add(l.cell) as *const i8;
+            let p = self.data.as_ptr().add(i) as *const i8;
             _mm_prefetch::<_MM_HINT_T0>(p);
             _mm_prefetch::<_MM_HINT_T0>(p.add(16));
-            let q = self.data.as_ptr().add(l.cell + self.width + 1) as *const i8;
+            let q = self.data.as_ptr().add(i + self.width + 1) as *const i8;
             _mm_prefetch::<_MM_HINT_T0>(q);
             _mm_prefetch::<_MM_HINT_T0>(q.add(16));
         }
-        Some(l)
     }
 
     /// Whether [`Envmap::prefetch`] does anything: maps of 256 KiB of texels or more (16 Ki

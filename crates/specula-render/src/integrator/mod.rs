@@ -614,7 +614,6 @@ impl Scene {
         light_frac: f32,
         wl: Option<&Wavelengths>,
     ) -> Rgb {
-        let out = Rgb::ZERO;
         // the commonest cases, one `constant` or `envmap` light in RGB mode, without the
         // general loop's dispatch (the same operations: the loop's one iteration written out)
         if let ([li], None) = (&self.infinite_lights[..], wl) {
@@ -627,16 +626,26 @@ impl Scene {
                 (Light::Other(Emitter::Envmap(e)), None) => (e.eval(d), 0.0),
                 _ => return self.infinite_radiance_all(d, bsdf_pdf, light_frac, wl),
             };
-            if le.is_black() {
-                return out;
-            }
-            let w = match bsdf_pdf {
-                None => 1.0,
-                Some(p) => mis(p, pdf * self.light_select_pdf() * light_frac),
-            };
-            return out + le * w;
+            return self.weighted_infinite(le, pdf, bsdf_pdf, light_frac);
         }
         self.infinite_radiance_all(d, bsdf_pdf, light_frac, wl)
+    }
+
+    /// The single infinite light's radiance `le` (light pdf `pdf`) along a ray that escaped,
+    /// MIS-weighted against the BSDF sample's pdf (`None`: a Dirac lobe or the camera ray,
+    /// weight 1): [`Scene::infinite_radiance`]'s one-light case, and the path loop's for the
+    /// environment-map lookup it kept.
+    #[inline]
+    fn weighted_infinite(&self, le: Rgb, pdf: f32, bsdf_pdf: Option<f32>, light_frac: f32) -> Rgb {
+        let out = Rgb::ZERO;
+        if le.is_black() {
+            return out;
+        }
+        let w = match bsdf_pdf {
+            None => 1.0,
+            Some(p) => mis(p, pdf * self.light_select_pdf() * light_frac),
+        };
+        out + le * w
     }
 
     /// [`Scene::infinite_radiance`] over every infinite light.

@@ -214,8 +214,8 @@ impl Scene {
     }
 
     /// [`Scene::infinite_radiance`] (RGB mode, `light_frac` 1) where the scene's one infinite
-    /// light is the environment map `e` and `l` its lookup along the ray: the same operations
-    /// as that function's single-light case, from the lookup on.
+    /// light is the environment map `e` and `l` its lookup along the ray: that function's
+    /// single-light case from the lookup on (the same weighting, `weighted_infinite`).
     #[inline]
     pub(super) fn envmap_radiance_at(
         &self,
@@ -227,13 +227,6 @@ impl Scene {
             Some(_) => e.eval_pdf_at(l),
             None => (e.eval_at(l), 0.0),
         };
-        if le.is_black() {
-            return Rgb::ZERO;
-        }
-        let w = match bsdf_pdf {
-            None => 1.0,
-            Some(p) => mis(p, pdf * self.light_select_pdf() * 1.0),
-        };
-        Rgb::ZERO + le * w
+        self.weighted_infinite(le, pdf, bsdf_pdf, 1.0)
     }
 }

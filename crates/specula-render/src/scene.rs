@@ -702,17 +702,22 @@ fn shape_attributes(geom: &Geometry) -> Option<Vec<(String, usize)>> {
 /// smaller one (about a millisecond) is built after them, without a thread.
 const BVH_BESIDE: usize = 4096;
 
-/// Marks the spheres whose uv nothing reads (no texture in their BSDF, no textured emission,
-/// no AOV integrator), so that their hits in the path loop skip the uv's trigonometry (an
-/// atan2 and an asin per hit: 2–3 % of a sphere scene's instructions; see
-/// `Geometry::surface_uv`). Nothing else changes: the uv is not read where it is skipped,
-/// and `Geometry::surface` still computes it for every caller.
+/// Marks the spheres and meshes whose uv nothing reads (no texture in their BSDF, no
+/// textured emission, no AOV integrator), so that their hits in the path loop skip it: a
+/// sphere's trigonometry (an atan2 and an asin per hit: 2–3 % of a sphere scene's
+/// instructions), a flat-faced mesh's (rectangle, cube) index and uv loads and interpolation
+/// (about 1 % of `cbox`'s); see `Geometry::surface_uv`. Nothing else changes: the uv is not
+/// read where it is skipped, and `Geometry::surface` still computes it for every caller.
 fn skip_unread_uv(parts: &mut Parts, bsdfs: &[Bsdf], integrator: &Integrator) {
     if !integrator.aov_channels().is_empty() {
         return;
     }
     for (i, g) in parts.geometry.iter_mut().enumerate() {
-        let Geometry::Sphere(s) = g else { continue };
+        let uv = match g {
+            Geometry::Sphere(s) => &mut s.uv,
+            Geometry::Mesh(m) => &mut m.uv,
+            _ => continue,
+        };
         let emission_reads_uv = match parts.shape_light[i] {
             Some(li) => !matches!(
                 &parts.lights[li as usize],
@@ -726,7 +731,7 @@ fn skip_unread_uv(parts: &mut Parts, bsdfs: &[Bsdf], integrator: &Integrator) {
         let bsdf_reads_uv = bsdfs
             .get(parts.shape_bsdf[i] as usize)
             .is_none_or(Bsdf::reads_uv);
-        s.uv = emission_reads_uv || bsdf_reads_uv;
+        *uv = emission_reads_uv || bsdf_reads_uv;
     }
 }
 

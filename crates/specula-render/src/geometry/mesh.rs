@@ -42,6 +42,10 @@ pub struct TriMesh {
     /// cube), whose vertex normals equal the face normal and whose uvs are affine on each
     /// face: the hit then only interpolates p and uv (see [`TriMesh::precompute_flat`]).
     pub(super) flat: Option<Box<[FlatFace]>>,
+    /// Whether a hit's uv is read where the scene's analysis decides it (set by the scene,
+    /// see `Geometry::surface_uv`): false lets the path loop skip a flat-faced mesh's uv
+    /// interpolation (its uv is then zero, and nothing reads it).
+    pub uv: bool,
 }
 
 /// What [`TriMesh::surface`] computes for one triangle of a flat-faced mesh that does not
@@ -125,6 +129,7 @@ impl TriMesh {
             area: sum as f32,
             rect: None,
             flat: None,
+            uv: true,
         }
     }
 
@@ -138,14 +143,17 @@ impl TriMesh {
         self.flat = None;
         let faces = (0..self.indices.len())
             .map(|i| {
-                let sg = self.surface(&Hit {
-                    t: 0.0,
-                    shape: 0,
-                    prim: i as u32,
-                    u: 1.0 / 3.0,
-                    v: 1.0 / 3.0,
-                    vertices: None,
-                });
+                let sg = self.surface(
+                    &Hit {
+                        t: 0.0,
+                        shape: 0,
+                        prim: i as u32,
+                        u: 1.0 / 3.0,
+                        v: 1.0 / 3.0,
+                        vertices: None,
+                    },
+                    true,
+                );
                 FlatFace {
                     n_geo: sg.n_geo,
                     sh_frame: sg.sh_frame,
@@ -225,8 +233,10 @@ impl TriMesh {
         PositionSample { p, n, uv, pdf }
     }
 
+    /// The surface at `hit`; `uv` false skips a flat-faced mesh's uv (left at zero) for a
+    /// caller that does not read it.
     #[inline(always)]
-    pub(super) fn surface(&self, hit: &Hit) -> SurfaceGeometry {
+    pub(super) fn surface(&self, hit: &Hit, uv: bool) -> SurfaceGeometry {
         let tri = hit.prim as usize;
         let [p0, p1, p2] = hit.vertices.unwrap_or_else(|| self.triangle(tri));
         let (b1, b2) = (hit.u, hit.v);
@@ -236,12 +246,17 @@ impl TriMesh {
         let p = p2 * b2 + (p1 * b1 + p0 * b0);
         if let (Some(flat), Some(uvs)) = (&self.flat, &self.uvs) {
             let f = &flat[tri];
-            let [i0, i1, i2] = self.indices[tri].map(|k| k as usize);
+            let uv = if uv {
+                let [i0, i1, i2] = self.indices[tri].map(|k| k as usize);
+                uvs[i2] * b2 + (uvs[i1] * b1 + uvs[i0] * b0)
+            } else {
+                Vec2::ZERO
+            };
             return SurfaceGeometry {
                 p,
                 n_geo: f.n_geo,
                 sh_frame: f.sh_frame,
-                uv: uvs[i2] * b2 + (uvs[i1] * b1 + uvs[i0] * b0),
+                uv,
                 dp_du: f.dp_du,
                 dp_dv: f.dp_dv,
             };

@@ -501,13 +501,14 @@ impl Geometry {
         self.surface_uv(ray, hit, true)
     }
 
-    /// [`Geometry::surface`], where `all_uv` false leaves the uv of a sphere that the scene
-    /// marked unread (`Sphere::uv`, see [`crate::scene`]) at zero: for a caller that reads uv
-    /// only as the scene's analysis assumes (BSDF textures, emission; the path loop).
+    /// [`Geometry::surface`], where `all_uv` false leaves the uv of a sphere or flat-faced
+    /// mesh that the scene marked unread (`Sphere::uv`, `TriMesh::uv`, see [`crate::scene`])
+    /// at zero: for a caller that reads uv only as the scene's analysis assumes (BSDF
+    /// textures, emission; the path loop).
     #[inline(always)]
     pub fn surface_uv(&self, ray: &Ray, hit: &Hit, all_uv: bool) -> SurfaceGeometry {
         match self {
-            Geometry::Mesh(m) => m.surface(hit),
+            Geometry::Mesh(m) => m.surface(hit, all_uv || m.uv),
             Geometry::Sphere(s) => s.surface(ray, hit, all_uv || s.uv),
             Geometry::Disk(d) => d.surface(hit),
             Geometry::Cylinder(c) => c.surface(ray, hit),

@@ -1823,7 +1823,18 @@ fn flat_faces_match_general_surface() {
                     v,
                     vertices: None,
                 };
-                let (a, b) = (fast.surface(&hit), general.surface(&hit));
+                let (a, b) = (fast.surface(&hit, true), general.surface(&hit, true));
+                // the uv skipped where nothing reads it: the rest the same bits
+                let c = fast.surface(&hit, false);
+                assert_eq!(c.uv, Vec2::ZERO);
+                assert_eq!(
+                    (c.p, c.n_geo, c.dp_du, c.dp_dv),
+                    (a.p, a.n_geo, a.dp_du, a.dp_dv)
+                );
+                assert_eq!(
+                    (c.sh_frame.n, c.sh_frame.s, c.sh_frame.t),
+                    (a.sh_frame.n, a.sh_frame.s, a.sh_frame.t)
+                );
                 assert_eq!((a.p, a.uv, a.n_geo), (b.p, b.uv, b.n_geo));
                 assert_eq!((a.dp_du, a.dp_dv), (b.dp_du, b.dp_dv));
                 for (x, y) in [

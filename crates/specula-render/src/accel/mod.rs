@@ -103,13 +103,10 @@ fn intersect_each<I: Intersector + ?Sized>(accel: &I, rays: &[Ray], hits: &mut [
 /// of `d`, by `(1 + max(|p.x|, |p.y|, |p.z|)) · RAY_EPSILON`.
 #[inline]
 pub fn offset_ray_origin(p: Vec3, n: Vec3, d: Vec3) -> Vec3 {
-    // the largest |component| by comparisons: `max_element`'s NaN-ignoring `f32::max` costs
-    // five instructions where this costs one, and a hit point has no NaN (one that did gives
-    // a NaN origin either way, a ray no walk accepts)
+    // (a hit point has no NaN; one that did gives a NaN origin either way, which no walk
+    // accepts)
     let a = p.abs();
-    let m = if a.x > a.y { a.x } else { a.y };
-    let m = if m > a.z { m } else { a.z };
-    let mag = (1.0 + m) * RAY_EPSILON;
+    let mag = (1.0 + crate::core::max3(a.x, a.y, a.z)) * RAY_EPSILON;
     let mag = mag.copysign(n.dot(d));
     n * mag + p
 }

@@ -167,12 +167,10 @@ impl Scene {
             };
 
             depth += 1;
-            // the largest channel by comparisons (`max_component`'s NaN-ignoring `f32::max`
-            // costs five instructions each; with a NaN channel the path ends here or goes on
-            // to a sample that the film discards as NaN)
+            // (with a NaN channel the path ends here or goes on to a sample that the film
+            // discards as NaN)
             let [r, g, b] = throughput.0;
-            let tmax = if r > g { r } else { g };
-            let tmax = if tmax > b { tmax } else { b };
+            let tmax = crate::core::max3(r, g, b);
             if tmax <= 0.0 {
                 break;
             }

@@ -173,7 +173,7 @@ fn envmap_to_world_and_scale_match_mitsuba() {
 }
 
 /// ∫ pdf dω and ∫ L dω over the sphere. The pdf is integrated on a (u, cos θ) grid aligned
-/// with the sampling cells (exact for a per-cell constant), the radiance on a (u, v) grid
+/// with the sampling cells (exact for the pdf, bilinear in (u, cos θ) per cell), the radiance on a (u, v) grid
 /// aligned with the lookup's cells (8 × 8 midpoints each; smooth per piece).
 fn integrals(env: &Envmap) -> (f64, [f64; 3]) {
     let (w, h) = (env.width, env.height);
@@ -260,14 +260,28 @@ fn check_sampling(e: &Emitter, seed: u64) {
         "{mismatched} samples disagree with pdf/eval"
     );
 
-    // Expected bin masses, exactly: each cell is a rectangle in (u, z) with uniform density.
+    // Expected bin masses, exactly: each cell is a rectangle in (u, z) whose solid-angle
+    // density is the bilinear interpolation of its corners' in (x, s), the fractions of its
+    // width and of its band's z, so a bin's share of a cell is a sum of products of
+    // one-dimensional integrals of 1 − t and t.
+    let corner = |y: usize, x: usize| env.data[y * (w + 1) + x].w as f64;
+    // ∫ (1 − t) dt and ∫ t dt over [t0, t1]
+    let lin = |t0: f64, t1: f64| {
+        [
+            (t1 - t0) - (t1 * t1 - t0 * t0) / 2.0,
+            (t1 * t1 - t0 * t0) / 2.0,
+        ]
+    };
     let mut expect = vec![0f64; bu * bv];
     for j in 0..h - 1 {
         let (z1, z0) = (env.cos_theta[j] as f64, env.cos_theta[j + 1] as f64);
         let omega = 2.0 * std::f64::consts::PI / w as f64 * (z1 - z0);
         for i in 0..w {
-            let mass = env.cell_pdf(j * w + i) as f64 * omega;
-            if mass == 0.0 {
+            let d = [
+                [corner(j, i), corner(j, i + 1)],
+                [corner(j + 1, i), corner(j + 1, i + 1)],
+            ];
+            if d.iter().flatten().all(|&v| v == 0.0) {
                 continue;
             }
             let (u0, u1) = ((i as f64 + 0.5) / w as f64, (i as f64 + 1.5) / w as f64);
@@ -276,15 +290,35 @@ fn check_sampling(e: &Emitter, seed: u64) {
                     1.0 - 2.0 * b as f64 / bv as f64,
                     1.0 - 2.0 * (b + 1) as f64 / bv as f64,
                 );
-                let fz = overlap(z0, z1, bz0, bz1) / (z1 - z0);
-                if fz == 0.0 {
+                if overlap(z0, z1, bz0, bz1) == 0.0 {
                     continue;
                 }
+                // s = (z1 − z) / (z1 − z0) over the bin's part of the band
+                let is = lin(
+                    (z1 - bz1.min(z1)) / (z1 - z0),
+                    (z1 - bz0.max(z0)) / (z1 - z0),
+                );
                 for a in 0..bu {
                     let (a0, a1) = (a as f64 / bu as f64, (a + 1) as f64 / bu as f64);
-                    let fu =
-                        (overlap(u0, u1, a0, a1) + overlap(u0 - 1.0, u1 - 1.0, a0, a1)) * w as f64;
-                    expect[b * bu + a] += mass * fz * fu;
+                    // the cell's x over the bin, the cell also seen one turn back (it may
+                    // cross u = 1)
+                    let mut ix = [0.0f64; 2];
+                    for shift in [0.0, 1.0] {
+                        let (c0, c1) = (u0 - shift, u1 - shift);
+                        if overlap(c0, c1, a0, a1) > 0.0 {
+                            let part =
+                                lin((a0.max(c0) - c0) * w as f64, (a1.min(c1) - c0) * w as f64);
+                            ix[0] += part[0];
+                            ix[1] += part[1];
+                        }
+                    }
+                    let mut mass = 0.0;
+                    for (sy, row) in d.iter().enumerate() {
+                        for (sx, &v) in row.iter().enumerate() {
+                            mass += v * ix[sx] * is[sy];
+                        }
+                    }
+                    expect[b * bu + a] += mass * omega;
                 }
             }
         }
@@ -863,4 +897,38 @@ fn spot_and_projector_parameters_are_checked() {
     let e = node(r#"<emitter type="spot"><float name="cutoff_angle" value="20"/><float name="beam_width" value="25"/></emitter>"#).unwrap();
     let t = 19f32.to_radians();
     assert!(close(at(&e, [t.sin(), 0.0, t.cos()]), [1.0; 3], 1e-5));
+}
+
+/// `sample_linear` inverts the CDF of the linear density with values a at 0 and b at 1,
+/// F(x) = (2a·x + (b − a)·x²) / (a + b), to f32 rounding, including where a or b is 0 and
+/// where they are equal (uniform), and keeps its result in [0, 1).
+#[test]
+fn sample_linear_inverts_the_linear_cdf() {
+    use super::envmap::sample_linear;
+    let mut rnd = lcg(3);
+    let mut pairs = vec![
+        (1.0f32, 1.0f32),
+        (0.0, 1.0),
+        (1.0, 0.0),
+        (2.0, 2.0),
+        (1e-30, 1.0),
+    ];
+    pairs.extend((0..200).map(|_| (rnd() * 10.0, rnd() * 10.0)));
+    pairs.extend((0..100).map(|_| (rnd() * 1e-3, rnd() * 1e3)));
+    for (a, b) in pairs {
+        let mut prev = -1.0f32;
+        for k in 0..=64 {
+            let u = (k as f32 / 64.0).min(1.0 - f32::EPSILON / 2.0);
+            let x = sample_linear(u, a, b);
+            assert!((0.0..1.0).contains(&x), "a {a} b {b} u {u}: {x}");
+            assert!(x >= prev, "a {a} b {b}: not monotonic at u {u}");
+            prev = x;
+            let (a, b, x) = (a as f64, b as f64, x as f64);
+            let cdf = (2.0 * a * x + (b - a) * x * x) / (a + b);
+            assert!(
+                (cdf - u as f64).abs() < 2e-6,
+                "a {a} b {b} u {u}: F({x}) = {cdf}"
+            );
+        }
+    }
 }

@@ -41,4 +41,9 @@ $S gallery --no-presets --quiet --columns 2 --size 200 -o docs/multiscatter.png 
 $S phase plot hg --g 0.2,0.6,0.9,-0.4 rayleigh --log -o docs/phase.png
 $S gallery --quiet -o docs/gallery.png "$SHARED/data/merl/mitsuba_rough_copper.binary" \
     "$SHARED/data/rgl/acrylic_felt_green_rgb.bsdf"
+$S gallery --no-presets --quiet -o docs/cloth_gallery.png \
+    "irawan pattern=polyester repeatU=60 repeatV=30 warp_kd=0.03,0.08,0.3 warp_ks=0.5 weft_kd=0.03,0.08,0.3 weft_ks=0.5" \
+    "irawan pattern=denim repeatU=60 repeatV=30 warp_kd=0.03,0.07,0.25 warp_ks=0.15 weft_kd=0.6,0.6,0.55 weft_ks=0.15" \
+    "irawan pattern=charmeuse repeatU=60 repeatV=30 warp_kd=0.25,0.02,0.05 warp_ks=0.6 weft_kd=0.25,0.02,0.05 weft_ks=0.3" \
+    "blendbsdf weight=0.6 { diffuse reflectance=0.2,0.01,0.04 } { velvet reflectance=0.9,0.25,0.4 sigma=0.3 }"
 echo "docs/*.png regenerated"

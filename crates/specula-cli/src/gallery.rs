@@ -491,13 +491,13 @@ fn render_tiles(
     for (k, e) in entries.iter().enumerate() {
         let r = match e.medium {
             None => {
-                scene.bsdfs[probe] = e.bsdf.clone();
+                scene.set_bsdf(probe, e.bsdf.clone());
                 render(&scene, opts, stop, &|done, _| progress(k, done))
             }
             Some(medium) => {
                 let (mut s, p) = preview_scene_with_medium(size, medium)
                     .map_err(|e2| CliError::usage(format!("preset '{}': {e2:?}", e.label)))?;
-                s.bsdfs[p] = e.bsdf.clone();
+                s.set_bsdf(p, e.bsdf.clone());
                 render(&s, opts, stop, &|done, _| progress(k, done))
             }
         };

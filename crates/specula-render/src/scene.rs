@@ -275,6 +275,9 @@ pub struct Scene {
     pub shape_bsdf: Vec<u32>,
     /// Light attached to each shape, if it emits.
     pub shape_light: Vec<Option<u32>>,
+    /// The scene's BSDFs. Replace one with [`Scene::set_bsdf`], which keeps what the
+    /// shapes using it compute per hit in step (assigning here directly can leave a shape
+    /// skipping the uv its new BSDF reads).
     pub bsdfs: Vec<Bsdf>,
     pub lights: Vec<Light>,
     /// Indices of infinitely distant lights (environment, constant) seen by escaping rays.
@@ -365,6 +368,25 @@ impl Scene {
         }
         self.lights.push(Light::Other(emitter));
         self.prefetched_maps = prefetched_maps(&self.lights, &self.infinite_lights);
+    }
+
+    /// Replaces BSDF `index` (as `bsdfs[index] = bsdf`) and has the spheres and flat-faced
+    /// meshes that use it compute their hits' uv again if the new BSDF may read it (the
+    /// scene's analysis turned the uv off for shapes whose material reads none, see
+    /// `skip_unread_uv`). Panics if `index` is out of range, as indexing does.
+    pub fn set_bsdf(&mut self, index: usize, bsdf: Bsdf) {
+        if bsdf.reads_uv() {
+            for (g, &b) in self.geometry.iter_mut().zip(&self.shape_bsdf) {
+                if b as usize == index {
+                    match g {
+                        Geometry::Sphere(s) => s.uv = true,
+                        Geometry::Mesh(m) => m.uv = true,
+                        _ => {}
+                    }
+                }
+            }
+        }
+        self.bsdfs[index] = bsdf;
     }
 
     #[inline]
@@ -1662,6 +1684,62 @@ fn bsdf_err(e: specula_bsdf::BuildError) -> SceneError {
 #[cfg(test)]
 mod from_xml_str_tests {
     use super::*;
+
+    /// A scene built with a placeholder material whose shapes skip their uv (a constant
+    /// diffuse) gets it back when `set_bsdf` gives them one that reads it (the `gallery`'s
+    /// probe, whose woven and textured materials rendered as if at uv (0, 0) until then).
+    #[test]
+    fn set_bsdf_turns_the_uv_back_on() {
+        let text = r#"<scene version="3.0.0">
+    <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film></sensor>
+    <shape type="sphere"><bsdf type="diffuse"/></shape>
+    <shape type="rectangle"><transform name="to_world"><translate z="-3"/></transform><bsdf type="diffuse"/></shape>
+    <shape type="sphere"><point name="center" value="5, 0, 0"/><bsdf type="conductor"/></shape>
+</scene>"#;
+        let mut s = Scene::from_xml_str(text, "<test>", Path::new("."), &[]).unwrap();
+        let flags = |s: &Scene| {
+            s.geometry
+                .iter()
+                .map(|g| match g {
+                    Geometry::Sphere(x) => x.uv,
+                    Geometry::Mesh(m) => m.uv,
+                    _ => unreachable!(),
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(flags(&s), [false, false, false]);
+        let constant = specula_bsdf::parse_spec("diffuse reflectance=0.3").unwrap();
+        let woven =
+            specula_bsdf::parse_spec(
+            "irawan pattern=polyester repeatU=60 repeatV=30 warp_kd=0.1 warp_ks=0.5 weft_kd=0.1 weft_ks=0.5",
+        ).unwrap();
+        let (sphere, rect) = (s.shape_bsdf[0] as usize, s.shape_bsdf[1] as usize);
+        s.set_bsdf(sphere, constant);
+        assert_eq!(flags(&s), [false, false, false]);
+        s.set_bsdf(sphere, woven.clone());
+        s.set_bsdf(rect, woven);
+        assert_eq!(flags(&s), [true, true, false]);
+        // and the hit's uv is the sphere's own again
+        let hit = s
+            .intersect(&Ray {
+                o: Vec3::new(0.3, 0.2, 5.0),
+                d: -Vec3::Z,
+                t_max: f32::INFINITY,
+            })
+            .unwrap();
+        let uv = s.geometry[hit.shape as usize]
+            .surface_uv(
+                &Ray {
+                    o: Vec3::new(0.3, 0.2, 5.0),
+                    d: -Vec3::Z,
+                    t_max: f32::INFINITY,
+                },
+                &hit,
+                false,
+            )
+            .uv;
+        assert_ne!(uv, glam::Vec2::ZERO);
+    }
 
     #[test]
     fn spheres_skip_the_uv_only_where_nothing_reads_it() {

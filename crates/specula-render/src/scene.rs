@@ -377,12 +377,8 @@ impl Scene {
     pub fn set_bsdf(&mut self, index: usize, bsdf: Bsdf) {
         if bsdf.reads_uv() {
             for (g, &b) in self.geometry.iter_mut().zip(&self.shape_bsdf) {
-                if b as usize == index {
-                    match g {
-                        Geometry::Sphere(s) => s.uv = true,
-                        Geometry::Mesh(m) => m.uv = true,
-                        _ => {}
-                    }
+                if let (true, Some(uv)) = (b as usize == index, g.uv_flag_mut()) {
+                    *uv = true;
                 }
             }
         }
@@ -735,10 +731,8 @@ fn skip_unread_uv(parts: &mut Parts, bsdfs: &[Bsdf], integrator: &Integrator) {
         return;
     }
     for (i, g) in parts.geometry.iter_mut().enumerate() {
-        let uv = match g {
-            Geometry::Sphere(s) => &mut s.uv,
-            Geometry::Mesh(m) => &mut m.uv,
-            _ => continue,
+        let Some(uv) = g.uv_flag_mut() else {
+            continue;
         };
         let emission_reads_uv = match parts.shape_light[i] {
             Some(li) => !matches!(
@@ -1709,10 +1703,11 @@ mod from_xml_str_tests {
         };
         assert_eq!(flags(&s), [false, false, false]);
         let constant = specula_bsdf::parse_spec("diffuse reflectance=0.3").unwrap();
-        let woven =
-            specula_bsdf::parse_spec(
-            "irawan pattern=polyester repeatU=60 repeatV=30 warp_kd=0.1 warp_ks=0.5 weft_kd=0.1 weft_ks=0.5",
-        ).unwrap();
+        let woven = specula_bsdf::parse_spec(concat!(
+            "irawan pattern=polyester repeatU=60 repeatV=30",
+            " warp_kd=0.1 warp_ks=0.5 weft_kd=0.1 weft_ks=0.5"
+        ))
+        .unwrap();
         let (sphere, rect) = (s.shape_bsdf[0] as usize, s.shape_bsdf[1] as usize);
         s.set_bsdf(sphere, constant);
         assert_eq!(flags(&s), [false, false, false]);
@@ -1720,23 +1715,14 @@ mod from_xml_str_tests {
         s.set_bsdf(rect, woven);
         assert_eq!(flags(&s), [true, true, false]);
         // and the hit's uv is the sphere's own again
-        let hit = s
-            .intersect(&Ray {
-                o: Vec3::new(0.3, 0.2, 5.0),
-                d: -Vec3::Z,
-                t_max: f32::INFINITY,
-            })
-            .unwrap();
+        let ray = Ray {
+            o: Vec3::new(0.3, 0.2, 5.0),
+            d: -Vec3::Z,
+            t_max: f32::INFINITY,
+        };
+        let hit = s.intersect(&ray).unwrap();
         let uv = s.geometry[hit.shape as usize]
-            .surface_uv(
-                &Ray {
-                    o: Vec3::new(0.3, 0.2, 5.0),
-                    d: -Vec3::Z,
-                    t_max: f32::INFINITY,
-                },
-                &hit,
-                false,
-            )
+            .surface_uv(&ray, &hit, false)
             .uv;
         assert_ne!(uv, glam::Vec2::ZERO);
     }

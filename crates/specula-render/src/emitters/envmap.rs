@@ -65,9 +65,9 @@ pub struct Envmap {
 pub struct Lookup {
     cell: usize,
     w1: Vec2,
-    /// cos θ of the direction (where the sampling density is interpolated, see
-    /// [`Envmap::pdf_in_cell`]).
-    cos_theta: f32,
+    /// The direction's fraction of its cell's band in cos θ, where the sampling density
+    /// is interpolated (see [`Envmap::band_fraction`]).
+    s: f32,
 }
 
 impl std::fmt::Debug for Envmap {
@@ -183,6 +183,15 @@ pub(super) fn sample_linear(u: f32, a: f32, b: f32) -> f32 {
     let den = a + (a * a + (b * b - a * a) * u).max(0.0).sqrt();
     let x = if den > 0.0 { u * (a + b) / den } else { 0.0 };
     x.clamp(0.0, 1.0 - f32::EPSILON / 2.0)
+}
+
+/// The bilinear interpolation of a cell's corner values (upper left, upper right, lower left,
+/// lower right) at fraction `x` of its width and `s` of its height.
+#[inline]
+fn bilerp([d00, d10, d01, d11]: [f32; 4], x: f32, s: f32) -> f32 {
+    let top = d00 + (d10 - d00) * x;
+    let bottom = d01 + (d11 - d01) * x;
+    top + (bottom - top) * s
 }
 
 #[inline]
@@ -334,35 +343,38 @@ impl Envmap {
         Rgb::new(t.x, t.y, t.z)
     }
 
-    /// The solid-angle pdf at the point of the cell whose upper-left texel is `index` with
-    /// cos θ = `cos_theta` and fraction `x` of the cell's width: the density shares of its
-    /// four corners interpolated bilinearly in (x, cos θ) (see the module docs).
+    /// The density shares of the four corners of the cell whose upper-left texel is `index`:
+    /// upper left, upper right, lower left, lower right.
     #[inline]
-    pub(super) fn pdf_in_cell(&self, index: usize, x: f32, cos_theta: f32) -> f32 {
-        let j = index / (self.width + 1);
-        let s = (self.cos_theta[j] - cos_theta) * self.inv_band[j];
-        self.density(index, x.clamp(0.0, 1.0), s.clamp(0.0, 1.0))
+    fn corners(&self, index: usize) -> [f32; 4] {
+        let pw = self.width + 1;
+        [
+            self.data[index].w,
+            self.data[index + 1].w,
+            self.data[index + pw].w,
+            self.data[index + pw + 1].w,
+        ]
     }
 
-    /// The bilinear interpolation of the density shares of the cell whose upper-left texel is
-    /// `index`, at fraction `x` of its width and `s` of its band's cos θ (both in [0, 1]).
+    /// Where cos θ lies in the band of cell row `j`, as a fraction in [0, 1] from its top.
     #[inline]
-    fn density(&self, index: usize, x: f32, s: f32) -> f32 {
-        let pw = self.width + 1;
-        let (d00, d10) = (self.data[index].w, self.data[index + 1].w);
-        let (d01, d11) = (self.data[index + pw].w, self.data[index + pw + 1].w);
-        let top = d00 + (d10 - d00) * x;
-        let bottom = d01 + (d11 - d01) * x;
-        top + (bottom - top) * s
+    fn band_fraction(&self, j: usize, cos_theta: f32) -> f32 {
+        ((self.cos_theta[j] - cos_theta) * self.inv_band[j]).clamp(0.0, 1.0)
+    }
+
+    /// The solid-angle pdf at the point of the cell whose upper-left texel is `index`, at
+    /// fraction `x` of its width and `s` of its band (see the module docs).
+    #[inline]
+    fn pdf_in_cell(&self, index: usize, x: f32, s: f32) -> f32 {
+        bilerp(self.corners(index), x.clamp(0.0, 1.0), s)
     }
 
     /// The mean solid-angle pdf over the sampling cell whose upper-left texel is `index`
     /// (the mean of its corners' density shares): the cell's probability over its solid angle.
     #[cfg(test)]
     pub(super) fn cell_pdf_at(&self, index: usize) -> f32 {
-        let pw = self.width + 1;
-        let l = |k: usize| 0.25 * self.data[k].w;
-        (l(index) + l(index + 1)) + (l(index + pw) + l(index + pw + 1))
+        let [a, b, c, d] = self.corners(index).map(|v| 0.25 * v);
+        (a + b) + (c + d)
     }
 
     /// The sampling cell (row-major over (H − 1) × W) holding local direction `d`.
@@ -384,6 +396,13 @@ impl Envmap {
     /// and the weights of the right and lower texels.
     #[inline]
     pub(super) fn bilinear_cell(&self, uv: Vec2) -> (usize, Vec2) {
+        let (_, cell, w1) = self.bilinear_cell_in_row(uv);
+        (cell, w1)
+    }
+
+    /// [`Envmap::bilinear_cell`], with the cell's row first.
+    #[inline]
+    fn bilinear_cell_in_row(&self, uv: Vec2) -> (usize, usize, Vec2) {
         let (w, h) = (self.width, self.height);
         let mut uv = uv;
         uv.x -= 0.5 / to_f32(w);
@@ -395,7 +414,11 @@ impl Envmap {
         uv *= Vec2::new(to_f32(w), to_f32(h - 1));
         let px = to_index(uv.x).min(w - 1);
         let py = to_index(uv.y).min(h - 2);
-        (py * (w + 1) + px, uv - Vec2::new(to_f32(px), to_f32(py)))
+        (
+            py,
+            py * (w + 1) + px,
+            uv - Vec2::new(to_f32(px), to_f32(py)),
+        )
     }
 
     /// The radiance (times `scale`) interpolated with weights `w1` in the cell from texel `i`.
@@ -566,11 +589,11 @@ impl Envmap {
         if d == Vec3::ZERO {
             return None;
         }
-        let (cell, w1) = self.bilinear_cell(Self::direction_to_uv(d));
+        let (j, cell, w1) = self.bilinear_cell_in_row(Self::direction_to_uv(d));
         Some(Lookup {
             cell,
             w1,
-            cos_theta: d.y,
+            s: self.band_fraction(j, d.y),
         })
     }
 
@@ -585,7 +608,7 @@ impl Envmap {
     pub fn eval_pdf_at(&self, l: Lookup) -> (Rgb, f32) {
         (
             self.interpolate(l.cell, l.w1),
-            self.pdf_in_cell(l.cell, l.w1.x, l.cos_theta),
+            self.pdf_in_cell(l.cell, l.w1.x, l.s),
         )
     }
 
@@ -596,8 +619,8 @@ impl Envmap {
         if d == Vec3::ZERO {
             return 0.0;
         }
-        let (cell, w1) = self.bilinear_cell(Self::direction_to_uv(d));
-        self.pdf_in_cell(cell, w1.x, d.y)
+        let (j, cell, w1) = self.bilinear_cell_in_row(Self::direction_to_uv(d));
+        self.pdf_in_cell(cell, w1.x, self.band_fraction(j, d.y))
     }
 
     /// Importance-samples a direction (see the module documentation).
@@ -616,17 +639,16 @@ impl Envmap {
         // inside the cell, (x, s) (fractions of its width and of its band's cos θ) from the
         // bilinear interpolation of its corners' densities: s from the marginal, linear
         // between the top and bottom edges' sums, then x from the row at s
-        let pw = w + 1;
-        let index = j * pw + i;
-        let (d00, d10) = (self.data[index].w, self.data[index + 1].w);
-        let (d01, d11) = (self.data[index + pw].w, self.data[index + pw + 1].w);
+        let index = j * (w + 1) + i;
+        let corners = self.corners(index);
+        let [d00, d10, d01, d11] = corners;
         let sf = sample_linear(sv, d00 + d10, d01 + d11);
         let xf = sample_linear(su, d00 + (d01 - d00) * sf, d10 + (d11 - d10) * sf);
         // u of the lat-long map (φ / 2π, a half texel on from the cell's corner) and cos θ
         let x = (to_f32(i) + xf + 0.5) / to_f32(w);
         let (c0, c1) = (self.cos_theta[j], self.cos_theta[j + 1]);
         let cos_t = c0 + (c1 - c0) * sf;
-        let pdf = self.density(index, xf, sf);
+        let pdf = bilerp(corners, xf, sf);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }

@@ -501,6 +501,18 @@ impl Geometry {
         self.surface_uv(ray, hit, true)
     }
 
+    /// The flag of a sphere or mesh that says whether its hits' uv is computed for the path
+    /// loop (`Sphere::uv`, `TriMesh::uv`; None for the other shapes, which always compute
+    /// it): what the scene's analysis sets ([`crate::scene`]'s `skip_unread_uv`, and
+    /// `Scene::set_bsdf`).
+    pub(crate) fn uv_flag_mut(&mut self) -> Option<&mut bool> {
+        match self {
+            Geometry::Sphere(s) => Some(&mut s.uv),
+            Geometry::Mesh(m) => Some(&mut m.uv),
+            _ => None,
+        }
+    }
+
     /// [`Geometry::surface`], where `all_uv` false leaves the uv of a sphere or flat-faced
     /// mesh that the scene marked unread (`Sphere::uv`, `TriMesh::uv`, see [`crate::scene`])
     /// at zero: for a caller that reads uv only as the scene's analysis assumes (BSDF

@@ -72,7 +72,9 @@ def measure(label, cmd_for, is_traversal, is_rest, a, pixels):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--scene", default="cbox", help="one scene or a comma-separated list")
+    ap.add_argument("--scene", default="cbox",
+                    help="one scene or a comma-separated list (names from ../shared/scenes, or "
+                         "paths ending in .xml)")
     ap.add_argument("--size", default="64x64")
     ap.add_argument("--low", type=int, default=4)
     ap.add_argument("--high", type=int, default=36)
@@ -85,7 +87,8 @@ def main():
     w, h = (int(v) for v in a.size.split("x"))
     exes = a.exe or [os.environ.get("SPECULA_EXE", str(root / "target" / "release" / "specula"))]
     for name in a.scene.split(","):
-        scene = shared / "scenes" / f"{name}.xml"
+        # a name from ../shared/scenes, or the path of a scene file
+        scene = pathlib.Path(name) if name.endswith(".xml") else shared / "scenes" / f"{name}.xml"
         print(f"Instructions per sample, {name} at {w}x{h} (callgrind, {a.high} - {a.low} spp, "
               "one thread)\n")
         print("| renderer | total | traversal | rest |")

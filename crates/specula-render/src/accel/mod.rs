@@ -360,7 +360,12 @@ impl Bvh {
             // (clamped: padding a box near ±f32::MAX must not make it infinite)
             let lo = (lo - pad).max(Vec3::splat(f32::MIN));
             let hi = (hi + pad).min(Vec3::splat(f32::MAX));
-            pb.push(PrimBox::new(lo, hi, shape.is_none(), kept.len() as u32));
+            pb.push(PrimBox::new(
+                lo,
+                hi,
+                shape.is_none().then_some(geom),
+                kept.len() as u32,
+            ));
             let analytic = match shape {
                 Some(shape) => {
                     shapes.push(shape);
@@ -505,7 +510,7 @@ impl Bvh {
         shapes: &[PrimShape],
         geoms: &[Geometry],
     ) {
-        let leaf_like = |b: &BNode| b.is_leaf() || (b.tris_only && b.count <= LEAF_TRIS);
+        let leaf_like = |b: &BNode| b.is_leaf();
         // (binary node, parent node, slot): inner nodes still to emit
         let mut todo: Vec<(u32, u32, usize)> = vec![(0, u32::MAX, 0)];
         let mut leaf_prims: Vec<u32> = Vec::new();

@@ -54,7 +54,6 @@ fn reference_build_binary(boxes: &[(Vec3, Vec3)], tris: &[bool]) -> (Vec<BNode>,
                 hi,
                 kids: [s as u32, NO_CHILD],
                 count: 1,
-                tris_only: tri(r[0]),
             });
             continue;
         }
@@ -83,17 +82,36 @@ fn reference_build_binary(boxes: &[(Vec3, Vec3)], tris: &[bool]) -> (Vec<BNode>,
             }
             m
         };
-        if r.len() <= LEAF_TRIS as usize && r.iter().all(|&i| tri(i)) {
-            tree.push(BNode {
-                lo,
-                hi,
-                kids: [s as u32, NO_CHILD],
-                count: r.len() as u32,
-                tris_only: true,
-            });
-            continue;
-        }
-        let mid = if ext[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+        // small triangle ranges: one leaf unless `split_small` splits them (shared with the
+        // build: what is checked here is everything around it)
+        let small = if r.len() <= LEAF_TRIS as usize && r.iter().all(|&i| tri(i)) {
+            let mut pb: Vec<PrimBox> = r
+                .iter()
+                .map(|&i| PrimBox::new(boxes[i as usize].0, boxes[i as usize].1, Some(0), i))
+                .collect();
+            let split = split_small(&mut pb);
+            // (reordered whether split or not)
+            for (slot, p) in r.iter_mut().zip(&pb) {
+                *slot = p.index();
+            }
+            match split {
+                Some(m) => Some(m),
+                None => {
+                    tree.push(BNode {
+                        lo,
+                        hi,
+                        kids: [s as u32, NO_CHILD],
+                        count: r.len() as u32,
+                    });
+                    continue;
+                }
+            }
+        } else {
+            None
+        };
+        let mid = if let Some(m) = small {
+            m
+        } else if ext[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
             || depth >= MAX_SAH_DEPTH
         {
             median(r)
@@ -162,7 +180,6 @@ fn reference_build_binary(boxes: &[(Vec3, Vec3)], tris: &[bool]) -> (Vec<BNode>,
             hi,
             kids: [NO_CHILD, NO_CHILD],
             count: 0,
-            tris_only: true,
         });
         todo.push((s + mid, e, index, 1, depth + 1));
         todo.push((s, s + mid, index, 0, depth + 1));
@@ -171,7 +188,6 @@ fn reference_build_binary(boxes: &[(Vec3, Vec3)], tris: &[bool]) -> (Vec<BNode>,
         if !tree[i].is_leaf() {
             let [a, b] = tree[i].kids.map(|k| k as usize);
             tree[i].count = tree[a].count + tree[b].count;
-            tree[i].tris_only = tree[a].tris_only && tree[b].tris_only;
         }
     }
     (tree, range)
@@ -180,9 +196,7 @@ fn reference_build_binary(boxes: &[(Vec3, Vec3)], tris: &[bool]) -> (Vec<BNode>,
 /// A binary build tree's nodes depth-first, first child first, whatever slots they
 /// occupy: box bits, count, triangles only, and for a leaf its primitives.
 #[allow(clippy::type_complexity)]
-fn canonical(
-    (tree, order): &(Vec<BNode>, Vec<u32>),
-) -> Vec<([u32; 3], [u32; 3], u32, bool, Vec<u32>)> {
+fn canonical((tree, order): &(Vec<BNode>, Vec<u32>)) -> Vec<([u32; 3], [u32; 3], u32, Vec<u32>)> {
     let bits = |v: Vec3| v.to_array().map(f32::to_bits);
     let mut out = vec![];
     let mut todo = vec![0usize];
@@ -196,7 +210,7 @@ fn canonical(
             todo.push(n.kids[0] as usize);
             vec![]
         };
-        out.push((bits(n.lo), bits(n.hi), n.count, n.tris_only, prims));
+        out.push((bits(n.lo), bits(n.hi), n.count, prims));
     }
     out
 }
@@ -289,6 +303,151 @@ fn build_matches_the_reference_build() {
             );
         }
     }
+}
+
+/// The leaves `split_small` makes of `pb` (splitting its parts again, as the build does),
+/// each as its primitives' indices.
+fn small_leaves(pb: &mut [PrimBox]) -> Vec<Vec<u32>> {
+    match split_small(pb) {
+        Some(m) => {
+            let (a, b) = pb.split_at_mut(m);
+            let mut out = small_leaves(a);
+            out.extend(small_leaves(b));
+            out
+        }
+        None => vec![pb.iter().map(PrimBox::index).collect()],
+    }
+}
+
+/// A small range of triangles far apart (three walls of a room, two triangles each, as
+/// `rectangle`s make them) is split into one leaf per wall, whose thin boxes a ray crosses
+/// only where it meets the wall, instead of one leaf whose box is the room; a compact one
+/// (the 8 faces of an octahedron, whose halves' boxes are as large as the whole's) stays one
+/// leaf, and so do the walls when they belong to one shape. Decisions do not depend on the
+/// order the triangles come in.
+#[test]
+fn small_ranges_split_where_the_sah_gains() {
+    let walls = [
+        (Vec3::new(-1.0, -1.0, -1.0), Vec3::new(1.0, -1.0, 1.0)), // floor
+        (Vec3::new(-1.0, -1.0, -1.0), Vec3::new(1.0, 1.0, -1.0)), // back
+        (Vec3::new(1.0, -1.0, -1.0), Vec3::new(1.0, 1.0, 1.0)),   // right
+    ];
+    for order in [[0u32, 1, 2, 3, 4, 5], [5, 2, 0, 3, 1, 4]] {
+        let mut pb: Vec<PrimBox> = order
+            .iter()
+            .map(|&i| {
+                let (lo, hi) = walls[i as usize / 2];
+                PrimBox::new(lo, hi, Some(i / 2), i)
+            })
+            .collect();
+        let mut leaves = small_leaves(&mut pb);
+        for l in &mut leaves {
+            l.sort();
+        }
+        leaves.sort();
+        assert_eq!(
+            leaves,
+            vec![vec![0, 1], vec![2, 3], vec![4, 5]],
+            "{order:?}"
+        );
+        // the same walls as one shape
+        let mut one: Vec<PrimBox> = order
+            .iter()
+            .map(|&i| {
+                let (lo, hi) = walls[i as usize / 2];
+                PrimBox::new(lo, hi, Some(7), i)
+            })
+            .collect();
+        assert_eq!(split_small(&mut one), None);
+    }
+    // the octahedron |x| + |y| + |z| = 1: face (sx, sy, sz) spans its octant
+    let mut pb: Vec<PrimBox> = (0..8u32)
+        .map(|i| {
+            let s = Vec3::new(
+                if i & 1 == 0 { 1.0 } else { -1.0 },
+                if i & 2 == 0 { 1.0 } else { -1.0 },
+                if i & 4 == 0 { 1.0 } else { -1.0 },
+            );
+            PrimBox::new(s.min(Vec3::ZERO), s.max(Vec3::ZERO), Some(i), i)
+        })
+        .collect();
+    assert_eq!(split_small(&mut pb), None);
+}
+
+/// Mitsuba's Cornell box as `rectangle`s and `cube`s (the geometry of
+/// ../shared/scenes/cbox.xml): with its walls in leaves of their own, the BVH answers rays
+/// from inside the room (closest hit and occlusion, every instruction set) as brute force
+/// does, and its root holds no leaf whose box is the room.
+#[test]
+fn room_of_rectangles_matches_brute_force() {
+    use glam::Quat;
+    let rect = |r: Quat, t: Vec3| Geometry::rectangle(Mat4::from_rotation_translation(r, t), false);
+    let (rx, ry) = (Quat::from_rotation_x, Quat::from_rotation_y);
+    let h = std::f32::consts::FRAC_PI_2;
+    let geoms = vec![
+        Geometry::rectangle(
+            Mat4::from_translation(Vec3::new(0.0, 0.99, 0.01))
+                * Mat4::from_quat(rx(h))
+                * Mat4::from_scale(Vec3::new(0.23, 0.19, 1.0)),
+            false,
+        ),
+        rect(rx(-h), Vec3::new(0.0, -1.0, 0.0)),
+        rect(rx(h), Vec3::new(0.0, 1.0, 0.0)),
+        rect(Quat::IDENTITY, Vec3::new(0.0, 0.0, -1.0)),
+        rect(ry(-h), Vec3::new(1.0, 0.0, 0.0)),
+        rect(ry(h), Vec3::new(-1.0, 0.0, 0.0)),
+        Geometry::cube(
+            Mat4::from_translation(Vec3::new(0.335, -0.7, 0.38))
+                * Mat4::from_quat(ry(-0.314))
+                * Mat4::from_scale(Vec3::splat(0.3)),
+            false,
+        ),
+        Geometry::cube(
+            Mat4::from_translation(Vec3::new(-0.335, -0.4, -0.28))
+                * Mat4::from_quat(ry(0.314))
+                * Mat4::from_scale(Vec3::new(0.3, 0.6, 0.3)),
+            false,
+        ),
+    ];
+    let bvh = Bvh::build(&geoms);
+    // no child of the root is a leaf whose box holds most of the room
+    let root = &bvh.nodes[0];
+    for s in 0..WIDTH {
+        let c = root.child[s];
+        if c & LEAF != 0 && c & ANALYTIC == 0 {
+            let e = Vec3::new(
+                root.b[1][s] - root.b[0][s],
+                root.b[3][s] - root.b[2][s],
+                root.b[5][s] - root.b[4][s],
+            );
+            assert!(e.min_element() < 1.0, "leaf {s} spans {e:?}");
+        }
+    }
+    let mut rng = Rng(11);
+    let mut hits = 0;
+    for i in 0..4000 {
+        let o = rng.in_box(Vec3::splat(-0.95), Vec3::splat(0.95));
+        let t_max = if i % 4 == 0 { rng.f() } else { f32::INFINITY };
+        let ray = Ray {
+            o,
+            d: rng.dir(),
+            t_max,
+        };
+        let want = brute_force_bvh(&bvh, &ray);
+        for isa in Isa::available() {
+            let mut b = bvh.clone();
+            b.set_isa(isa);
+            let got = b.intersect(&ray);
+            assert_eq!(
+                got.map(|h| h.t),
+                want.map(|h| h.t),
+                "{isa:?} ray {i}: {ray:?}"
+            );
+            assert_eq!(b.occluded(&ray), want.is_some(), "{isa:?} ray {i}");
+        }
+        hits += want.is_some() as usize;
+    }
+    assert!(hits > 2500, "only {hits} hits");
 }
 
 /// The scene of ../shared/scenes/meshes.xml plus analytic shapes.

@@ -175,14 +175,14 @@ pub(super) fn build_binary(boxes: &[(Vec3, Vec3)], tris: &[bool]) -> (Vec<BNode>
 /// The binary build tree over the primitives' build records (at least one), root first,
 /// parents before children, counts filled in, and the primitives in the order its leaves
 /// refer to. Leaves hold one primitive, or a range of at most [`LEAF_TRIS`] triangles (which
-/// `collapse` makes one leaf anyway: it is not split further), listed depth-first, first
+/// [`split_small`] did not split), listed depth-first, first
 /// child first. The build writes into 2n − 1 slots (a subtree of m primitives owns 2m − 1
 /// consecutive ones, so parallel parts write disjoint slices) that are never initialised
 /// beforehand: the slots after a subtree's last node (most of them, since leaves hold up to
 /// [`LEAF_TRIS`] triangles) are never written, so their memory is never touched (a fresh
 /// allocation of that size is mapped lazily), and the nodes are then copied out in order.
-/// Each node's primitive count and triangles-only flag are known when it is made (its range
-/// and that range's bounds), so no pass over the slots sums them.
+/// Each node's primitive count is known when it is made (its range), so no pass over the
+/// slots sums them.
 ///
 /// Top-down binned SAH: each node bins its primitives' centroids into [`bins_for`] slots
 /// along each axis of the centroid bounds and splits at the cheapest bin boundary (cost: area ×
@@ -272,7 +272,7 @@ type Split = (usize, Option<[RangeBounds; 2]>);
 
 /// The node over `range` (at least one primitive, the first at `first` in the primitive
 /// order; `bounds` its bounds when known) and its split; a single primitive, or at most
-/// [`LEAF_TRIS`] triangles, give a leaf and no split.
+/// [`LEAF_TRIS`] triangles that [`split_small`] does not split, give a leaf and no split.
 fn node_and_split(
     range: &mut [PrimBox],
     first: u32,

@@ -4,7 +4,9 @@
 //! centroid bins along all three axes ([`build::build_tree`]): 32 bins per axis for ranges of more
 //! than 1024 primitives, 16 down to 33 and 8 below ([`build::bins_for`]), the two halves of ranges
 //! of at least 16 k primitives built in parallel (the same tree for any number of threads).
-//! A range of at most 8 triangles is not split: it is one leaf. The build is O(n log n) on
+//! A range of at most 8 triangles is one leaf, unless it holds triangles of several shapes
+//! that the SAH finds clearly better apart ([`build::split_small`]: e.g. a room's walls, whose
+//! common box is the room). The build is O(n log n) on
 //! any input: identical centroids and subtrees deeper than [`build::MAX_SAH_DEPTH`] are split at
 //! the object median, and the heuristic is evaluated in double precision, so degenerate,
 //! zero-area and huge-coordinate geometry build as fast as any other. The binary tree is
@@ -12,7 +14,7 @@
 //! largest surface area); [`Bvh::sah_cost`] gives the result's SAH cost.
 //!
 //! Each node stores its children's boxes as arrays of f32 (one array per plane), so one ray
-//! is tested against all 8 boxes at once; subtrees of at most 8 triangles become leaves of one or two `TriPacket`s (4 triangles' vertices, one array per
+//! is tested against all 8 boxes at once; leaves of at most 8 triangles are one or two `TriPacket`s (4 triangles' vertices, one array per
 //! coordinate), tested 4 at a time, or both packets as 8 lanes with AVX2 (leaves of 8 rather
 //! than 4 triangles: one node level less, ~6 % faster on meshes.xml). Nodes and packets are
 //! laid out depth-first. Closest-hit queries visit
@@ -189,7 +191,8 @@ impl Prim {
 const WIDTH: usize = 8;
 /// Triangles per packet.
 const LANES: usize = 4;
-/// Subtrees with at most this many triangles (and nothing else) become one leaf (2 packets).
+/// Ranges of at most this many triangles (and nothing else) become one leaf (2 packets), unless
+/// [`build::split_small`] splits them.
 const LEAF_TRIS: u32 = 8;
 
 // A child reference (`u32`): a node index; or `LEAF | (packets − 1) << COUNT_SHIFT | first

@@ -160,14 +160,18 @@ impl PrimBox {
     }
 }
 
-/// [`build_tree`] over `boxes` (finite; `tris[i]`: whether primitive i is a triangle).
+/// [`build_tree`] over `boxes` (finite; `shapes[i]`: the shape of primitive i if it is a
+/// triangle, `None` if it is analytic).
 #[cfg(test)]
-pub(super) fn build_binary(boxes: &[(Vec3, Vec3)], tris: &[bool]) -> (Vec<BNode>, Vec<u32>) {
+pub(super) fn build_binary(
+    boxes: &[(Vec3, Vec3)],
+    shapes: &[Option<u32>],
+) -> (Vec<BNode>, Vec<u32>) {
     let mut pb: Vec<PrimBox> = boxes
         .iter()
-        .zip(tris)
+        .zip(shapes)
         .enumerate()
-        .map(|(i, (&(lo, hi), &tri))| PrimBox::new(lo, hi, tri.then_some(0), i as u32))
+        .map(|(i, (&(lo, hi), &shape))| PrimBox::new(lo, hi, shape, i as u32))
         .collect();
     build_tree(&mut pb)
 }

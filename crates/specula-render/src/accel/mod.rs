@@ -513,7 +513,6 @@ impl Bvh {
         shapes: &[PrimShape],
         geoms: &[Geometry],
     ) {
-        let leaf_like = |b: &BNode| b.is_leaf();
         // (binary node, parent node, slot): inner nodes still to emit
         let mut todo: Vec<(u32, u32, usize)> = vec![(0, u32::MAX, 0)];
         let mut leaf_prims: Vec<u32> = Vec::new();
@@ -525,7 +524,7 @@ impl Bvh {
             }
             self.nodes.push(Node::EMPTY);
             // children: open the largest-area inner child until there are 8
-            let mut kids: Vec<u32> = if leaf_like(&tree[b as usize]) {
+            let mut kids: Vec<u32> = if tree[b as usize].is_leaf() {
                 vec![b]
             } else {
                 tree[b as usize].kids.to_vec()
@@ -534,7 +533,7 @@ impl Bvh {
                 let best = kids
                     .iter()
                     .enumerate()
-                    .filter(|(_, &k)| !leaf_like(&tree[k as usize]))
+                    .filter(|(_, &k)| !tree[k as usize].is_leaf())
                     .max_by(|a, b| {
                         let (aa, ba) = (
                             tree[*a.1 as usize].half_area(),
@@ -556,7 +555,7 @@ impl Bvh {
                     node.b[2 * a][s] = kn.lo[a];
                     node.b[2 * a + 1][s] = kn.hi[a];
                 }
-                if !leaf_like(kn) {
+                if !kn.is_leaf() {
                     inner.push((k, index, s));
                     continue;
                 }

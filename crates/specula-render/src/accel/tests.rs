@@ -32,12 +32,15 @@ impl Rng {
 /// The binary build as it was before the start-up work (bounds recomputed per node, a
 /// box and a centroid array, every bin swept), sequential, compact: the reference that
 /// the faster build must reproduce node for node (as [`canonical`] lists them).
-fn reference_build_binary(boxes: &[(Vec3, Vec3)], tris: &[bool]) -> (Vec<BNode>, Vec<u32>) {
+fn reference_build_binary(
+    boxes: &[(Vec3, Vec3)],
+    shapes: &[Option<u32>],
+) -> (Vec<BNode>, Vec<u32>) {
     let cent: Vec<DVec3> = boxes
         .iter()
         .map(|(lo, hi)| (lo.as_dvec3() + hi.as_dvec3()) * 0.5)
         .collect();
-    let tri = |i: u32| tris[i as usize];
+    let tri = |i: u32| shapes[i as usize].is_some();
     let mut range: Vec<u32> = (0..boxes.len() as u32).collect();
     let mut tree: Vec<BNode> = vec![];
     let mut todo = vec![(0usize, range.len(), NO_CHILD, 0usize, 0u32)];
@@ -87,15 +90,18 @@ fn reference_build_binary(boxes: &[(Vec3, Vec3)], tris: &[bool]) -> (Vec<BNode>,
         let small = if r.len() <= LEAF_TRIS as usize && r.iter().all(|&i| tri(i)) {
             let mut pb: Vec<PrimBox> = r
                 .iter()
-                .map(|&i| PrimBox::new(boxes[i as usize].0, boxes[i as usize].1, Some(0), i))
+                .map(|&i| {
+                    let (lo, hi) = boxes[i as usize];
+                    PrimBox::new(lo, hi, shapes[i as usize], i)
+                })
                 .collect();
-            let split = split_small(&mut pb);
-            // (reordered whether split or not)
-            for (slot, p) in r.iter_mut().zip(&pb) {
-                *slot = p.index();
-            }
-            match split {
-                Some(m) => Some(m),
+            match split_small(&mut pb) {
+                Some(m) => {
+                    for (slot, p) in r.iter_mut().zip(&pb) {
+                        *slot = p.index();
+                    }
+                    Some(m)
+                }
                 None => {
                     tree.push(BNode {
                         lo,
@@ -286,21 +292,26 @@ fn build_matches_the_reference_build() {
                 }
             })
             .collect();
-        let tris: Vec<bool> = shapes
-            .iter()
-            .map(|s| matches!(s, TestPrim::Tri(_)))
-            .collect();
-        let want = canonical(&reference_build_binary(&boxes, &tris));
-        let got = canonical(&build_binary(&boxes, &tris));
-        assert_eq!(got.len(), want.len(), "{} primitives", shapes.len());
-        for (i, (g, w)) in got.iter().zip(&want).enumerate() {
-            assert_eq!(
-                g,
-                w,
-                "node {i} of {} ({} primitives)",
-                want.len(),
-                shapes.len()
-            );
+        // the triangles as one shape, and spread over three (where small ranges of several
+        // shapes go through `split_small`)
+        for spread in [1, 3] {
+            let ids: Vec<Option<u32>> = shapes
+                .iter()
+                .enumerate()
+                .map(|(i, s)| matches!(s, TestPrim::Tri(_)).then_some(i as u32 % spread))
+                .collect();
+            let want = canonical(&reference_build_binary(&boxes, &ids));
+            let got = canonical(&build_binary(&boxes, &ids));
+            assert_eq!(got.len(), want.len(), "{} primitives", shapes.len());
+            for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+                assert_eq!(
+                    g,
+                    w,
+                    "node {i} of {} ({} primitives, {spread} shapes)",
+                    want.len(),
+                    shapes.len()
+                );
+            }
         }
     }
 }

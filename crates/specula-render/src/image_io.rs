@@ -380,9 +380,9 @@ fn read_exr(bytes: &[u8]) -> std::result::Result<Image, String> {
             .list
             .iter()
             .find(|c| c.name.to_string() == name)
-            .map(|c| c.sample_data.values_as_f32().collect::<Vec<f32>>())
+            .map(|c| &c.sample_data)
     };
-    let planes: Vec<Vec<f32>> = match (find("R"), find("G"), find("B"), find("Y")) {
+    let planes = match (find("R"), find("G"), find("B"), find("Y")) {
         (Some(r), Some(g), Some(b), _) => match find("A") {
             Some(a) => vec![r, g, b, a],
             None => vec![r, g, b],
@@ -406,10 +406,15 @@ fn read_exr(bytes: &[u8]) -> std::result::Result<Image, String> {
     if planes.iter().any(|p| p.len() != n) {
         return Err("OpenEXR channel sizes disagree".into());
     }
+    // interleaved straight from the decoder's planes (no copy of each plane first)
     let mut data = vec![0.0f32; n * channels];
     for (c, plane) in planes.iter().enumerate() {
-        for (i, v) in plane.iter().enumerate() {
-            data[i * channels + c] = *v;
+        for (d, v) in data[c..]
+            .iter_mut()
+            .step_by(channels)
+            .zip(plane.values_as_f32())
+        {
+            *d = v;
         }
     }
     Ok(Image {

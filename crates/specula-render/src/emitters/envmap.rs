@@ -244,25 +244,35 @@ impl Envmap {
                 }
             })
             .collect();
-        let lum: Vec<f64> = data.iter().map(|t| t.w as f64).collect();
+        // Two passes over the cells, row by row, reusing one row of weights (no image-sized
+        // temporaries: fresh memory costs page faults, a good part of this function's time):
+        // the row sums first, then each row's conditional CDF.
         let rows = h - 1;
-        let mut weights = vec![0.0f64; rows * w];
-        let mut row_sum = vec![0.0f64; rows];
-        for j in 0..rows {
+        let band = |j: usize| {
             let th0 = std::f64::consts::PI * j as f64 / rows as f64;
             let th1 = std::f64::consts::PI * (j + 1) as f64 / rows as f64;
-            let band = th0.cos() - th1.cos();
-            for i in 0..w {
+            th0.cos() - th1.cos()
+        };
+        let mut row_weights = vec![0.0f64; w];
+        let fill_row = |j: usize, out: &mut [f64]| -> f64 {
+            let (top, bottom) = (
+                &data[j * pw..(j + 1) * pw],
+                &data[(j + 1) * pw..(j + 2) * pw],
+            );
+            let b = band(j);
+            let mut sum = 0.0f64;
+            for (i, o) in out.iter_mut().enumerate() {
                 let avg = 0.25
-                    * (lum[j * pw + i]
-                        + lum[j * pw + i + 1]
-                        + lum[(j + 1) * pw + i]
-                        + lum[(j + 1) * pw + i + 1]);
-                let wt = avg * band;
-                weights[j * w + i] = wt;
-                row_sum[j] += wt;
+                    * (top[i].w as f64
+                        + top[i + 1].w as f64
+                        + bottom[i].w as f64
+                        + bottom[i + 1].w as f64);
+                *o = avg * b;
+                sum += *o;
             }
-        }
+            sum
+        };
+        let row_sum: Vec<f64> = (0..rows).map(|j| fill_row(j, &mut row_weights)).collect();
         let total: f64 = row_sum.iter().sum();
         let mut row_cdf = vec![0.0f32; rows + 1];
         let mut col_cdf = vec![0.0f32; rows * (w + 1)];
@@ -277,10 +287,11 @@ impl Envmap {
                 } else {
                     (acc / total) as f32
                 };
+                fill_row(j, &mut row_weights);
                 let cdf = &mut col_cdf[j * (w + 1)..(j + 1) * (w + 1)];
                 let mut a = 0.0f64;
                 for i in 0..w {
-                    a += weights[j * w + i];
+                    a += row_weights[i];
                     cdf[i + 1] = if row_sum[j] > 0.0 {
                         if a >= row_sum[j] {
                             1.0
@@ -303,8 +314,8 @@ impl Envmap {
         } else {
             0.0
         };
-        for (t, &l) in data.iter_mut().zip(&lum) {
-            t.w = (l * pdf_scale) as f32;
+        for t in data.iter_mut() {
+            t.w = (t.w as f64 * pdf_scale) as f32;
         }
         let mut row_guide = vec![];
         guide::build(&row_cdf, guide::ROW_BINS, &mut row_guide);
@@ -430,12 +441,6 @@ impl Envmap {
         let v1 = self.data[i + pw] * w0.x + self.data[i + pw + 1] * w1.x;
         let v = v0 * w0.y + v1 * w1.y;
         Rgb::new(v.x, v.y, v.z) * self.scale
-    }
-
-    /// Mitsuba's `eval_spectrum`: bilinear lookup at lat-long `uv`, times `scale`.
-    pub(super) fn eval_uv(&self, uv: Vec2) -> Rgb {
-        let (i, w1) = self.bilinear_cell(uv);
-        self.interpolate(i, w1)
     }
 
     /// Spectral mode: the radiance from world direction `d` at the wavelengths `wl`, as
@@ -625,10 +630,10 @@ impl Envmap {
 
     /// Importance-samples a direction (see the module documentation).
     pub fn sample(&self, u: Vec2) -> Option<DirectionSample> {
-        if self.row_cdf[self.height - 1] != 1.0 {
+        let (w, h) = (self.width, self.height);
+        if self.row_cdf[h - 1] != 1.0 {
             return None; // black (or non-finite) map
         }
-        let w = self.width;
         let (j, sv) = guide::sample::<false>(&self.row_cdf, &self.row_guide, u.y);
         let g = guide::buckets(w, guide::COL_BINS) + 1;
         let (i, su) = guide::sample::<true>(
@@ -636,36 +641,41 @@ impl Envmap {
             &self.col_guide[j * g..(j + 1) * g],
             u.x,
         );
+        // the cell's four texels, read once: their density shares place the point inside
+        // the cell, and their colours give its radiance
+        let index = j * (w + 1) + i;
+        let [t00, t10] = [self.data[index], self.data[index + 1]];
+        let [t01, t11] = [self.data[index + w + 1], self.data[index + w + 2]];
+        let corners = [t00.w, t10.w, t01.w, t11.w];
         // inside the cell, (x, s) (fractions of its width and of its band's cos θ) from the
         // bilinear interpolation of its corners' densities: s from the marginal, linear
         // between the top and bottom edges' sums, then x from the row at s
-        let index = j * (w + 1) + i;
-        let corners = self.corners(index);
         let [d00, d10, d01, d11] = corners;
         let sf = sample_linear(sv, d00 + d10, d01 + d11);
         let xf = sample_linear(su, d00 + (d01 - d00) * sf, d10 + (d11 - d10) * sf);
-        // u of the lat-long map (φ / 2π, a half texel on from the cell's corner) and cos θ
-        let x = (to_f32(i) + xf + 0.5) / to_f32(w);
-        let (c0, c1) = (self.cos_theta[j], self.cos_theta[j + 1]);
-        let cos_t = c0 + (c1 - c0) * sf;
         let pdf = bilerp(corners, xf, sf);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
+        // u of the lat-long map (φ / 2π, a half texel on from the cell's corner) and cos θ
+        let x = (to_f32(i) + xf + 0.5) / to_f32(w);
+        let (c0, c1) = (self.cos_theta[j], self.cos_theta[j + 1]);
+        let cos_t = c0 + (c1 - c0) * sf;
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
         let (sin_p, cos_p) = specula_bsdf::math::sincos_2pi(x);
         let d_local = Vec3::new(sin_t * sin_p, cos_t, -sin_t * cos_p);
         let wi = (self.to_world * d_local).normalize();
-        // the radiance at the sampled point, from its lat-long coordinates directly (what
-        // `direction_to_uv(d_local)` gives up to rounding, without its atan2)
-        let uv = Vec2::new(
-            x,
-            specula_bsdf::math::acos(cos_t.clamp(-1.0, 1.0)) * (1.0 / PI),
-        );
+        // the radiance at the sampled point: the bilinear lookup in the same cell, whose
+        // weights are the point's fractions of the cell's width (xf) and of its height in θ
+        // (the lookup's coordinate, v = θ/π), clamped against rounding at the cell's edges
+        let theta = specula_bsdf::math::acos(cos_t.clamp(-1.0, 1.0));
+        let wy = (theta * (to_f32(h - 1) / PI) - to_f32(j)).clamp(0.0, 1.0);
+        let (wx0, wy0) = (1.0 - xf, 1.0 - wy);
+        let v = (t00 * wx0 + t10 * xf) * wy0 + (t01 * wx0 + t11 * xf) * wy;
         Some(DirectionSample {
             wi,
             dist: f32::INFINITY,
-            radiance: self.eval_uv(uv),
+            radiance: Rgb::new(v.x, v.y, v.z) * self.scale,
             pdf,
             is_delta: false,
         })

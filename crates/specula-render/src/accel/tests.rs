@@ -421,6 +421,8 @@ fn room_of_rectangles_matches_brute_force() {
         ),
     ];
     let bvh = Bvh::build(&geoms);
+    // triangles only: the walks make each ray's triangle constants up front
+    assert!(!bvh.lazy);
     // no child of the root is a leaf whose box holds most of the room
     let root = &bvh.nodes[0];
     for s in 0..WIDTH {
@@ -582,12 +584,17 @@ fn bvh_matches_brute_force() {
     assert!(isas.contains(&Isa::Scalar) && isas.contains(&Isa::detect()));
     #[cfg(target_arch = "x86_64")]
     assert!(isas.contains(&Isa::Sse2));
-    let bvhs: Vec<(Isa, Bvh)> = isas
+    // the tree holds a sphere and a disk, so its walks make the triangle constants lazily;
+    // each instruction set runs both ways (`TriRayCell`), which must agree bit for bit
+    assert!(bvh.lazy);
+    let bvhs: Vec<((Isa, bool), Bvh)> = isas
         .iter()
-        .map(|&isa| {
+        .flat_map(|&isa| [(isa, true), (isa, false)])
+        .map(|(isa, lazy)| {
             let mut b = bvh.clone();
             b.set_isa(isa);
-            (isa, b)
+            b.lazy = lazy;
+            ((isa, lazy), b)
         })
         .collect();
     let mut rng = Rng(7);
@@ -769,13 +776,18 @@ fn avx2_packet_checks_validity_and_octant_as_the_single_ray_path() {
             t_max: f32::INFINITY,
         })
         .collect();
+    let key = |h: Option<Hit>| h.map(|h| (h.t, h.shape, h.prim, h.u, h.v));
+    // both ways of making the triangle constants (`TriRayCell`), which must agree
     let run = |rays: &[Ray]| {
         let mut hits = [None; 8];
+        let mut lazy_hits = [None; 8];
         // SAFETY: AVX2 and FMA are present; 2 to 8 rays, 8 hits, a non-empty tree.
-        let taken = unsafe { bvh.closest_packet_avx2(rays, &mut hits) };
+        let taken = unsafe { bvh.closest_packet_avx2::<false>(rays, &mut hits) };
+        // SAFETY: as above.
+        let lazy_taken = unsafe { bvh.closest_packet_avx2::<true>(rays, &mut lazy_hits) };
+        assert_eq!((taken, hits.map(key)), (lazy_taken, lazy_hits.map(key)));
         (taken, hits)
     };
-    let key = |h: Option<Hit>| h.map(|h| (h.t, h.shape, h.prim, h.u, h.v));
     for n in 2..=8 {
         let (taken, hits) = run(&rays[..n]);
         assert!(taken, "{n} rays of one octant");

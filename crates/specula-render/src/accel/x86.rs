@@ -285,26 +285,26 @@ fn exact_edges<const N: usize>(lanes: i32, e: &mut [[f32; N]; 9]) {
 // saves were paid on every ray whichever walk ran.
 impl Bvh {
     #[inline(never)]
-    pub(super) fn closest_sse2(&self, ray: &Ray) -> Option<Hit> {
+    pub(super) fn closest_sse2<const LAZY: bool>(&self, ray: &Ray) -> Option<Hit> {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { self.closest::<Sse2, Sse2>(ray) }
+        unsafe { self.closest::<Sse2, Sse2, LAZY>(ray) }
     }
     #[inline(never)]
-    pub(super) fn occluded_sse2(&self, ray: &Ray) -> bool {
+    pub(super) fn occluded_sse2<const LAZY: bool>(&self, ray: &Ray) -> bool {
         // SAFETY: SSE2 is part of x86-64.
-        unsafe { self.any_hit::<Sse2, Sse2>(ray) }
+        unsafe { self.any_hit::<Sse2, Sse2, LAZY>(ray) }
     }
     /// # Safety
     /// The CPU must support AVX2 and FMA.
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn closest_avx2(&self, ray: &Ray) -> Option<Hit> {
-        self.closest::<Avx2, Avx2>(ray)
+    pub(super) unsafe fn closest_avx2<const LAZY: bool>(&self, ray: &Ray) -> Option<Hit> {
+        self.closest::<Avx2, Avx2, LAZY>(ray)
     }
     /// # Safety
     /// The CPU must support AVX2 and FMA.
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn occluded_avx2(&self, ray: &Ray) -> bool {
-        self.any_hit::<Avx2, Avx2>(ray)
+    pub(super) unsafe fn occluded_avx2<const LAZY: bool>(&self, ray: &Ray) -> bool {
+        self.any_hit::<Avx2, Avx2, LAZY>(ray)
     }
 
     /// Closest hits of 2 to 8 rays that share a direction octant, walked as one packet:
@@ -319,7 +319,7 @@ impl Bvh {
     /// The CPU must support AVX2 and FMA; `rays` holds 2 to 8 rays, `hits` at least as many
     /// hits; the tree is not empty.
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn closest_packet_avx2(
+    pub(super) unsafe fn closest_packet_avx2<const LAZY: bool>(
         &self,
         rays: &[Ray],
         hits: &mut [Option<Hit>],
@@ -417,15 +417,15 @@ impl Bvh {
             _mm256_mul_ps(ony, exit),
             _mm256_mul_ps(onz, exit),
         );
-        let trs = [
-            TriRay::new(r[0]),
-            TriRay::new(r[1]),
-            TriRay::new(r[2]),
-            TriRay::new(r[3]),
-            TriRay::new(r[4]),
-            TriRay::new(r[5]),
-            TriRay::new(r[6]),
-            TriRay::new(r[7]),
+        let mut trs = [
+            TriRayCell::<LAZY>::new(r[0]),
+            TriRayCell::<LAZY>::new(r[1]),
+            TriRayCell::<LAZY>::new(r[2]),
+            TriRayCell::<LAZY>::new(r[3]),
+            TriRayCell::<LAZY>::new(r[4]),
+            TriRayCell::<LAZY>::new(r[5]),
+            TriRayCell::<LAZY>::new(r[6]),
+            TriRayCell::<LAZY>::new(r[7]),
         ];
         let mut t_max = [0f32; 8];
         _mm256_storeu_ps(t_max.as_mut_ptr(), tm);
@@ -501,10 +501,10 @@ impl Bvh {
                 while m != 0 {
                     let lane = m.trailing_zeros() as usize;
                     m &= m - 1;
-                    self.leaf_closest::<Avx2>(
+                    self.leaf_closest::<Avx2, LAZY>(
                         cur,
                         &rays[lane],
-                        &trs[lane],
+                        &mut trs[lane],
                         &mut t_max[lane],
                         &mut best[lane],
                         &mut out,

@@ -23,8 +23,7 @@ pub(super) const NO_CHILD: u32 = u32::MAX;
 
 impl BNode {
     pub(super) fn half_area(&self) -> f32 {
-        let e = (self.hi - self.lo).max(Vec3::ZERO);
-        e.x * e.y + e.y * e.z + e.z * e.x
+        half_area_f32(self.lo.into(), self.hi.into())
     }
     pub(super) fn is_leaf(&self) -> bool {
         self.kids[1] == NO_CHILD
@@ -76,7 +75,7 @@ pub(super) struct PrimBox {
     hi: [f32; 3],
     /// 0 for an analytic shape; for a triangle, 1 + the index of its shape (see
     /// [`split_small`])
-    tri: u32,
+    tri_shape: u32,
 }
 
 /// The smaller of two centroids, per axis (no NaN is ever built: `f64::min` without its NaN
@@ -103,7 +102,7 @@ impl PrimBox {
             lo: lo.to_array(),
             index,
             hi: hi.to_array(),
-            tri: shape.map_or(0, |s| s.saturating_add(1)),
+            tri_shape: shape.map_or(0, |s| s.saturating_add(1)),
         }
     }
 
@@ -150,8 +149,8 @@ impl PrimBox {
     }
 
     #[inline(always)]
-    fn tri(&self) -> bool {
-        self.tri != 0
+    fn is_tri(&self) -> bool {
+        self.tri_shape != 0
     }
 
     #[inline(always)]
@@ -258,7 +257,7 @@ impl RangeBounds {
         self.hi = self.hi.max(p.hi());
         self.clo = dmin(self.clo, c);
         self.chi = dmax(self.chi, c);
-        self.tris &= p.tri();
+        self.tris &= p.is_tri();
     }
 
     fn of(range: &[PrimBox]) -> RangeBounds {
@@ -402,9 +401,21 @@ struct SmallRange {
 
 /// Half the surface area of a box (single precision: enough to compare costs).
 #[inline]
-fn half_area_f32(lo: Vec3A, hi: Vec3A) -> f32 {
+pub(super) fn half_area_f32(lo: Vec3A, hi: Vec3A) -> f32 {
     let e = (hi - lo).max(Vec3A::ZERO);
     e.x * e.y + e.y * e.z + e.z * e.x
+}
+
+/// The axis of the largest of three extents (the first of equal ones).
+#[inline]
+fn widest_axis<T: PartialOrd>([x, y, z]: [T; 3]) -> usize {
+    if x >= y && x >= z {
+        0
+    } else if y >= z {
+        1
+    } else {
+        2
+    }
 }
 
 /// A key ordering finite floats as their values (−0 and +0 apart, which the centroids of
@@ -441,7 +452,7 @@ fn order_key(x: f32, index: u32) -> u64 {
 pub(super) fn split_small(range: &mut [PrimBox]) -> Option<usize> {
     let n = range.len();
     debug_assert!(n <= LEAF_TRIS as usize);
-    if range.iter().all(|p| p.tri == range[0].tri) {
+    if range.iter().all(|p| p.tri_shape == range[0].tri_shape) {
         return None;
     }
     let mut r = SmallRange {
@@ -493,13 +504,7 @@ fn small_cost(r: &SmallRange, order: &mut [u8], depth: u32) -> (f32, usize) {
     let packets = |k: usize| k.div_ceil(LANES) as f32 + LEAF_VISIT_COST;
     let leaf = half_area_f32(lo, hi) * packets(n);
     let ext = chi - clo;
-    let axis = if ext.x >= ext.y && ext.x >= ext.z {
-        0
-    } else if ext.y >= ext.z {
-        1
-    } else {
-        2
-    };
+    let axis = widest_axis(ext.to_array());
     // (one triangle, or centroids that coincide: nothing to split along)
     if n < 2
         || ext[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
@@ -570,13 +575,7 @@ impl Bin {
 /// parts: the length of the first and, for a SAH split, the bounds of both.
 fn split(range: &mut [PrimBox], clo: DVec3, chi: DVec3, depth: u32) -> Split {
     let ext = chi - clo;
-    let axis = if ext.x >= ext.y && ext.x >= ext.z {
-        0
-    } else if ext.y >= ext.z {
-        1
-    } else {
-        2
-    };
+    let axis = widest_axis(ext.to_array());
     let median = |range: &mut [PrimBox]| {
         let m = range.len() / 2;
         if ext[axis] > 0.0 {

@@ -22,6 +22,7 @@
 //! - a developed pixel whose sums overflowed `f32` (radiance near 3.4e38) is not written as
 //!   ±∞: [`Film::develop`] reports how many there were (see `render::RenderOutput`).
 
+use crate::core::to_f32;
 use glam::{Vec2, Vec4};
 use specula_bsdf::Rgb;
 
@@ -325,9 +326,11 @@ impl ImageBlock {
         let (ew, eh) = self.stored_size();
         let r = self.filter.radius();
         // Position relative to the stored area's pixel centres.
-        let b = self.border as f32;
-        let px = film_pos.x + (b - self.offset.0 as f32 - 0.5);
-        let py = film_pos.y + (b - self.offset.1 as f32 - 0.5);
+        // (through u32: one conversion instruction where usize → f32 takes a dozen; the
+        // same values, offsets being below `MAX_FILM_SIDE` and borders at most 32)
+        let b = to_f32(self.border);
+        let px = film_pos.x + (b - to_f32(self.offset.0) - 0.5);
+        let py = film_pos.y + (b - to_f32(self.offset.1) - 0.5);
         let x0 = ceil_i64(px - r).max(0);
         let y0 = ceil_i64(py - r).max(0);
         let x1 = floor_i64(px + r).min(ew as i64 - 1);
@@ -409,9 +412,11 @@ impl ImageBlock {
             return false;
         };
         let r = self.filter.radius();
-        let b = self.border as f32;
-        let px = film_pos.x + (b - self.offset.0 as f32 - 0.5);
-        let py = film_pos.y + (b - self.offset.1 as f32 - 0.5);
+        // (through u32: one conversion instruction where usize → f32 takes a dozen; the
+        // same values, offsets being below `MAX_FILM_SIDE` and borders at most 32)
+        let b = to_f32(self.border);
+        let px = film_pos.x + (b - to_f32(self.offset.0) - 0.5);
+        let py = film_pos.y + (b - to_f32(self.offset.1) - 0.5);
         if !(px.abs() < 16_777_216.0 && py.abs() < 16_777_216.0) {
             return false;
         }

@@ -20,7 +20,7 @@
 //! - `mesh_attribute` (`name` = `vertex_…`/`face_…`, `scale` default 1) reads the hit mesh's
 //!   attribute through the shading point (see [`MeshAttributeTexture`]).
 
-use crate::core::{Result, SceneError};
+use crate::core::{to_f32, Result, SceneError};
 use crate::image_io::{read_image_raw_prefetched, srgb_to_linear, Image, Pixels, RawImage};
 use crate::xml::{Node, PropValue};
 use glam::{Mat3, Mat4, Vec2, Vec3};
@@ -460,13 +460,13 @@ impl Bitmap {
         let (w, h) = (self.width as i64, self.height as i64);
         match self.filter {
             FilterType::Nearest => {
-                let x = floor(uv.x * self.width as f32) as i64;
-                let y = floor(uv.y * self.height as f32) as i64;
+                let x = floor(uv.x * to_f32(self.width)) as i64;
+                let y = floor(uv.y * to_f32(self.height)) as i64;
                 self.texel(self.wrap.wrap(x, w), self.wrap.wrap(y, h))
             }
             FilterType::Bilinear => {
-                let px = uv.x * self.width as f32 - 0.5;
-                let py = uv.y * self.height as f32 - 0.5;
+                let px = uv.x * to_f32(self.width) - 0.5;
+                let py = uv.y * to_f32(self.height) - 0.5;
                 let (fx, fy) = (floor(px), floor(py));
                 let (w1x, w1y) = (px - fx, py - fy);
                 let (w0x, w0y) = (1.0 - w1x, 1.0 - w1y);
@@ -540,8 +540,8 @@ impl Bitmap {
         }
         let uv = apply_uv(&self.to_uv, uv);
         let (w, h) = (self.width as i64, self.height as i64);
-        let px = uv.x * self.width as f32 - 0.5;
-        let py = uv.y * self.height as f32 - 0.5;
+        let px = uv.x * to_f32(self.width) - 0.5;
+        let py = uv.y * to_f32(self.height) - 0.5;
         let (fx, fy) = (floor(px), floor(py));
         let (w1x, w1y) = (px - fx, py - fy);
         let (w0x, w0y) = (1.0 - w1x, 1.0 - w1y);
@@ -556,8 +556,8 @@ impl Bitmap {
         let dy = w0x * (f01 - f00) + w1x * (f11 - f10);
         let m = &self.to_uv;
         Vec2::new(
-            (m.x_axis.x * dx + m.x_axis.y * dy) * self.width as f32,
-            (m.y_axis.x * dx + m.y_axis.y * dy) * self.height as f32,
+            (m.x_axis.x * dx + m.x_axis.y * dy) * to_f32(self.width),
+            (m.y_axis.x * dx + m.y_axis.y * dy) * to_f32(self.height),
         )
     }
 }

@@ -1295,49 +1295,43 @@ fn valid_ray(ray: &Ray) -> bool {
     (o.abs().cmplt(inf) & d.abs().cmplt(inf)).all() && d.cmpne(Vec3A::ZERO).any() && ray.t_max > 0.0
 }
 
+/// Calls the walk (closest-hit or any-hit: its AVX2, SSE2 and scalar entry points) for the
+/// tree's instruction set, in the variant that makes the triangle constants lazily or up
+/// front (`Bvh::lazy`). Each variant is a function of its own: one function holding both
+/// paid the larger one's prologue and register pressure on every ray.
+macro_rules! walk {
+    ($bvh:ident, $ray:ident, $avx2:ident, $sse2:ident, $scalar:ident) => {{
+        let lazy = $bvh.lazy;
+        match $bvh.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `set_isa` and `Isa::detect` only select AVX2 on CPUs with AVX2 and FMA.
+            Isa::Avx2 if lazy => unsafe { $bvh.$avx2::<true>($ray) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            Isa::Avx2 => unsafe { $bvh.$avx2::<false>($ray) },
+            #[cfg(target_arch = "x86_64")]
+            Isa::Sse2 if lazy => $bvh.$sse2::<true>($ray),
+            #[cfg(target_arch = "x86_64")]
+            Isa::Sse2 => $bvh.$sse2::<false>($ray),
+            _ if lazy => $bvh.$scalar::<true>($ray),
+            _ => $bvh.$scalar::<false>($ray),
+        }
+    }};
+}
+
 impl Intersector for Bvh {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         if !valid_ray(ray) || self.nodes.is_empty() {
             return None;
         }
-        // (each walk has an eager and a lazy variant out of line: one function holding both
-        // paid the larger one's prologue and register pressure on every ray)
-        let lazy = self.lazy;
-        match self.isa {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `set_isa` and `Isa::detect` only select AVX2 on CPUs with AVX2 and FMA.
-            Isa::Avx2 if lazy => unsafe { self.closest_avx2::<true>(ray) },
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: as above.
-            Isa::Avx2 => unsafe { self.closest_avx2::<false>(ray) },
-            #[cfg(target_arch = "x86_64")]
-            Isa::Sse2 if lazy => self.closest_sse2::<true>(ray),
-            #[cfg(target_arch = "x86_64")]
-            Isa::Sse2 => self.closest_sse2::<false>(ray),
-            _ if lazy => self.closest_scalar::<true>(ray),
-            _ => self.closest_scalar::<false>(ray),
-        }
+        walk!(self, ray, closest_avx2, closest_sse2, closest_scalar)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
         if !valid_ray(ray) || self.nodes.is_empty() {
             return false;
         }
-        let lazy = self.lazy;
-        match self.isa {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `set_isa` and `Isa::detect` only select AVX2 on CPUs with AVX2 and FMA.
-            Isa::Avx2 if lazy => unsafe { self.occluded_avx2::<true>(ray) },
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: as above.
-            Isa::Avx2 => unsafe { self.occluded_avx2::<false>(ray) },
-            #[cfg(target_arch = "x86_64")]
-            Isa::Sse2 if lazy => self.occluded_sse2::<true>(ray),
-            #[cfg(target_arch = "x86_64")]
-            Isa::Sse2 => self.occluded_sse2::<false>(ray),
-            _ if lazy => self.any_hit_scalar::<true>(ray),
-            _ => self.any_hit_scalar::<false>(ray),
-        }
+        walk!(self, ray, occluded_avx2, occluded_sse2, any_hit_scalar)
     }
 
     fn intersect_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {

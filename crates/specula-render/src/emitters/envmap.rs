@@ -354,17 +354,24 @@ impl Envmap {
         Rgb::new(t.x, t.y, t.z)
     }
 
-    /// The density shares of the four corners of the cell whose upper-left texel is `index`:
-    /// upper left, upper right, lower left, lower right.
+    /// The four texels of the cell whose upper-left texel is `index`: upper left, upper
+    /// right, lower left, lower right.
     #[inline]
-    fn corners(&self, index: usize) -> [f32; 4] {
+    fn cell_texels(&self, index: usize) -> [Vec4; 4] {
         let pw = self.width + 1;
         [
-            self.data[index].w,
-            self.data[index + 1].w,
-            self.data[index + pw].w,
-            self.data[index + pw + 1].w,
+            self.data[index],
+            self.data[index + 1],
+            self.data[index + pw],
+            self.data[index + pw + 1],
         ]
+    }
+
+    /// The density shares of the four corners of the cell whose upper-left texel is `index`
+    /// (in [`Envmap::cell_texels`]' order).
+    #[inline]
+    fn corners(&self, index: usize) -> [f32; 4] {
+        self.cell_texels(index).map(|t| t.w)
     }
 
     /// Where cos θ lies in the band of cell row `j`, as a fraction in [0, 1] from its top.
@@ -435,10 +442,15 @@ impl Envmap {
     /// The radiance (times `scale`) interpolated with weights `w1` in the cell from texel `i`.
     #[inline]
     pub(super) fn interpolate(&self, i: usize, w1: Vec2) -> Rgb {
-        let pw = self.width + 1;
+        self.interpolate_texels(self.cell_texels(i), w1)
+    }
+
+    /// [`Envmap::interpolate`] of a cell's texels already read ([`Envmap::cell_texels`]).
+    #[inline]
+    fn interpolate_texels(&self, [t00, t10, t01, t11]: [Vec4; 4], w1: Vec2) -> Rgb {
         let w0 = Vec2::ONE - w1;
-        let v0 = self.data[i] * w0.x + self.data[i + 1] * w1.x;
-        let v1 = self.data[i + pw] * w0.x + self.data[i + pw + 1] * w1.x;
+        let v0 = t00 * w0.x + t10 * w1.x;
+        let v1 = t01 * w0.x + t11 * w1.x;
         let v = v0 * w0.y + v1 * w1.y;
         Rgb::new(v.x, v.y, v.z) * self.scale
     }
@@ -643,10 +655,8 @@ impl Envmap {
         );
         // the cell's four texels, read once: their density shares place the point inside
         // the cell, and their colours give its radiance
-        let index = j * (w + 1) + i;
-        let [t00, t10] = [self.data[index], self.data[index + 1]];
-        let [t01, t11] = [self.data[index + w + 1], self.data[index + w + 2]];
-        let corners = [t00.w, t10.w, t01.w, t11.w];
+        let texels = self.cell_texels(j * (w + 1) + i);
+        let corners = texels.map(|t| t.w);
         // inside the cell, (x, s) (fractions of its width and of its band's cos θ) from the
         // bilinear interpolation of its corners' densities: s from the marginal, linear
         // between the top and bottom edges' sums, then x from the row at s
@@ -670,12 +680,10 @@ impl Envmap {
         // (the lookup's coordinate, v = θ/π), clamped against rounding at the cell's edges
         let theta = specula_bsdf::math::acos(cos_t.clamp(-1.0, 1.0));
         let wy = (theta * (to_f32(h - 1) / PI) - to_f32(j)).clamp(0.0, 1.0);
-        let (wx0, wy0) = (1.0 - xf, 1.0 - wy);
-        let v = (t00 * wx0 + t10 * xf) * wy0 + (t01 * wx0 + t11 * xf) * wy;
         Some(DirectionSample {
             wi,
             dist: f32::INFINITY,
-            radiance: Rgb::new(v.x, v.y, v.z) * self.scale,
+            radiance: self.interpolate_texels(texels, Vec2::new(xf, wy)),
             pdf,
             is_delta: false,
         })
